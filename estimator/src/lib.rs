@@ -1,1 +1,19 @@
-//! placeholder
+//! Payload estimation for serial robots from joint torques (Gaz & De Luca, IROS 2017), with
+//! uncertainty, tare and calibration against the controller's model error, pose design and
+//! full inertial estimation from motion.
+//!
+//! Conventions: SI units (kg, m, kg·m², rad, Nm, s). Payload parameters live in the last DH
+//! frame n of the robot model (frame 7 of the LWR 4+, at the wrist point) unless a field says
+//! `flange`. Joints are 0-based in code and 1-based in messages.
+//!
+//! Modules: [`lsq`] least squares with covariance; [`expr`] and [`coefficients`] the paper's
+//! coefficient-set workflow (eqs. 21–28); [`filter`] zero-phase Butterworth filtering and
+//! numerical differentiation.
+
+pub mod coefficients;
+pub mod error;
+pub mod expr;
+pub mod lsq;
+
+pub use coefficients::{CoefficientEstimate, CoefficientSet};
+pub use error::EstimatorError;

@@ -1,1 +1,6 @@
-//! placeholder
+//! KUKA Fast Research Interface 1.x (LWR 4+ on KRC2lr): wire codec, KRL handshake
+//! convention, sans-IO session and real-time UDP endpoint.
+//!
+//! Spec: `shared/docs/fri-1x-protocol.md`; our own summary: `docs/fri.md`.
+
+pub mod wire;

@@ -1,0 +1,143 @@
+//! Little-endian accessors at fixed offsets. Callers guarantee the buffer length (the views
+//! check it in `new_checked`), so indexing is in bounds by construction.
+
+use super::field::Field;
+
+pub(crate) fn read_u16(b: &[u8], f: Field) -> u16 {
+    u16::from_le_bytes([b[f.start], b[f.start + 1]])
+}
+
+pub(crate) fn write_u16(b: &mut [u8], f: Field, v: u16) {
+    b[f.start..f.start + 2].copy_from_slice(&v.to_le_bytes());
+}
+
+pub(crate) fn read_u32(b: &[u8], f: Field) -> u32 {
+    u32::from_le_bytes([b[f.start], b[f.start + 1], b[f.start + 2], b[f.start + 3]])
+}
+
+pub(crate) fn write_u32(b: &mut [u8], f: Field, v: u32) {
+    b[f.start..f.start + 4].copy_from_slice(&v.to_le_bytes());
+}
+
+pub(crate) fn read_f32_at(b: &[u8], off: usize) -> f32 {
+    f32::from_le_bytes([b[off], b[off + 1], b[off + 2], b[off + 3]])
+}
+
+pub(crate) fn write_f32_at(b: &mut [u8], off: usize, v: f32) {
+    b[off..off + 4].copy_from_slice(&v.to_le_bytes());
+}
+
+pub(crate) fn read_f32(b: &[u8], f: Field) -> f32 {
+    read_f32_at(b, f.start)
+}
+
+pub(crate) fn write_f32(b: &mut [u8], f: Field, v: f32) {
+    write_f32_at(b, f.start, v);
+}
+
+pub(crate) fn read_f32s<const N: usize>(b: &[u8], f: Field) -> [f32; N] {
+    core::array::from_fn(|i| read_f32_at(b, f.start + 4 * i))
+}
+
+pub(crate) fn write_f32s<const N: usize>(b: &mut [u8], f: Field, v: &[f32; N]) {
+    for (i, x) in v.iter().enumerate() {
+        write_f32_at(b, f.start + 4 * i, *x);
+    }
+}
+
+pub(crate) fn read_f32_rows<const R: usize, const C: usize>(b: &[u8], f: Field) -> [[f32; C]; R] {
+    core::array::from_fn(|r| core::array::from_fn(|c| read_f32_at(b, f.start + 4 * (r * C + c))))
+}
+
+pub(crate) fn write_f32_rows<const R: usize, const C: usize>(
+    b: &mut [u8],
+    f: Field,
+    v: &[[f32; C]; R],
+) {
+    for (r, row) in v.iter().enumerate() {
+        for (c, x) in row.iter().enumerate() {
+            write_f32_at(b, f.start + 4 * (r * C + c), *x);
+        }
+    }
+}
+
+pub(crate) fn read_i32s<const N: usize>(b: &[u8], f: Field) -> [i32; N] {
+    core::array::from_fn(|i| {
+        let o = f.start + 4 * i;
+        i32::from_le_bytes([b[o], b[o + 1], b[o + 2], b[o + 3]])
+    })
+}
+
+pub(crate) fn write_i32s<const N: usize>(b: &mut [u8], f: Field, v: &[i32; N]) {
+    for (i, x) in v.iter().enumerate() {
+        let o = f.start + 4 * i;
+        b[o..o + 4].copy_from_slice(&x.to_le_bytes());
+    }
+}
+
+/// First non-finite f32 in any of `fields`, as (field name, element index).
+pub(crate) fn first_non_finite(
+    b: &[u8],
+    fields: &[(&'static str, Field)],
+) -> Option<(&'static str, usize)> {
+    for (name, f) in fields {
+        let mut off = f.start;
+        while off < f.end {
+            if !read_f32_at(b, off).is_finite() {
+                return Some((name, (off - f.start) / 4));
+            }
+            off += 4;
+        }
+    }
+    None
+}
+
+/// Narrows an f64 to the wire's f32, refusing values that are or become non-finite.
+pub(crate) fn to_wire_f32(
+    v: f64,
+    field: &'static str,
+    index: usize,
+) -> Result<f32, super::WireError> {
+    let narrowed = v as f32;
+    if narrowed.is_finite() {
+        Ok(narrowed)
+    } else {
+        Err(super::WireError::NonFinite { field, index })
+    }
+}
+
+/// Narrows an array of f64 to f32 (see [`to_wire_f32`]).
+pub(crate) fn to_wire_f32s<const N: usize>(
+    v: &[f64; N],
+    field: &'static str,
+) -> Result<[f32; N], super::WireError> {
+    let mut out = [0.0f32; N];
+    for (i, x) in v.iter().enumerate() {
+        out[i] = to_wire_f32(*x, field, i)?;
+    }
+    Ok(out)
+}
+
+/// Narrows a row-major matrix of f64 to f32 (see [`to_wire_f32`]); the index is row-major.
+pub(crate) fn to_wire_f32_rows<const R: usize, const C: usize>(
+    v: &[[f64; C]; R],
+    field: &'static str,
+) -> Result<[[f32; C]; R], super::WireError> {
+    let mut out = [[0.0f32; C]; R];
+    for (r, row) in v.iter().enumerate() {
+        for (c, x) in row.iter().enumerate() {
+            out[r][c] = to_wire_f32(*x, field, r * C + c)?;
+        }
+    }
+    Ok(out)
+}
+
+/// Widens f32 values to f64 (exact).
+pub(crate) fn widen<const N: usize>(v: [f32; N]) -> [f64; N] {
+    v.map(f64::from)
+}
+
+/// Widens a row-major f32 matrix to f64 (exact).
+pub(crate) fn widen_rows<const R: usize, const C: usize>(v: [[f32; C]; R]) -> [[f64; C]; R] {
+    v.map(|row| row.map(f64::from))
+}

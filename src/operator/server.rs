@@ -1,0 +1,322 @@
+//! Operator socket server: accepts Unix-socket clients, checks their credentials, reads framed
+//! requests, runs each through a [`Handler`] and writes replies and streamed events.
+//!
+//! Each request runs in its own task so a long workflow (estimation, watch) never blocks a `stop`
+//! sent on the same connection; replies of concurrent requests interleave by line and are matched
+//! by `id`. Nothing a client sends can stop the server: bad lines get error replies.
+
+use std::future::Future;
+use std::os::unix::fs::PermissionsExt;
+use std::path::Path;
+use std::sync::Arc;
+
+use serde_json::Value;
+use tokio::io::AsyncWriteExt;
+use tokio::net::{UnixListener, UnixStream};
+use tokio::sync::{Semaphore, mpsc, watch};
+use tracing::{debug, info, warn};
+
+use super::frame::{Frame, LineReader};
+use super::protocol::{ErrorCode, OperatorError, Reply, RequestId, parse_request};
+
+/// Executes operator commands; implemented by the service (and by test doubles).
+pub trait Handler: Send + Sync + 'static {
+    /// Runs one command; streams events through `events`, returns the final result.
+    fn handle(
+        &self,
+        command: super::protocol::Command,
+        events: EventSink,
+    ) -> impl Future<Output = Result<Value, OperatorError>> + Send;
+}
+
+/// Sends streamed events of one request to its client.
+#[derive(Debug, Clone)]
+pub struct EventSink {
+    id: Option<RequestId>,
+    out: mpsc::Sender<String>,
+}
+
+impl EventSink {
+    /// A sink writing lines for request `id` into `out`.
+    pub fn new(id: Option<RequestId>, out: mpsc::Sender<String>) -> Self {
+        Self { id, out }
+    }
+
+    /// Sends one event; `false` when the client is gone (the caller should stop streaming).
+    pub async fn send(&self, event: &str, data: Value) -> bool {
+        let line = Reply::Event {
+            id: self.id,
+            event: event.to_owned(),
+            data,
+        }
+        .to_line();
+        self.out.send(line).await.is_ok()
+    }
+
+    /// Whether the client has disconnected.
+    pub fn is_closed(&self) -> bool {
+        self.out.is_closed()
+    }
+}
+
+/// Who may connect: root, the server's own uid, listed uids, or listed primary gids.
+#[derive(Debug, Clone, Default)]
+pub struct AccessPolicy {
+    /// Additional allowed user ids.
+    pub allowed_uids: Vec<u32>,
+    /// Allowed group ids (the peer's primary gid as reported by SO_PEERCRED).
+    pub allowed_gids: Vec<u32>,
+}
+
+impl AccessPolicy {
+    /// Whether a peer with these credentials may talk to the service.
+    pub fn allows(&self, uid: u32, gid: u32) -> bool {
+        // SAFETY: geteuid has no preconditions and cannot fail.
+        let own = unsafe { libc::geteuid() };
+        uid == 0
+            || uid == own
+            || self.allowed_uids.contains(&uid)
+            || self.allowed_gids.contains(&gid)
+    }
+}
+
+/// Limits applied per server and per connection.
+#[derive(Debug, Clone, Copy)]
+pub struct ServerLimits {
+    /// Longest request line, bytes.
+    pub max_line_bytes: usize,
+    /// Most simultaneous connections.
+    pub max_clients: usize,
+    /// Most requests running at once on one connection.
+    pub max_in_flight: usize,
+}
+
+impl Default for ServerLimits {
+    fn default() -> Self {
+        Self {
+            max_line_bytes: 65536,
+            max_clients: 64,
+            max_in_flight: 16,
+        }
+    }
+}
+
+/// Errors setting up the socket.
+#[derive(Debug, thiserror::Error)]
+pub enum ServerError {
+    /// Creating the directory, binding or setting the mode failed.
+    #[error("{action} {path}: {source}")]
+    Io {
+        /// What was being done.
+        action: &'static str,
+        /// The path.
+        path: std::path::PathBuf,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// Another server answers on the socket path.
+    #[error("another service is already listening on {0}")]
+    InUse(std::path::PathBuf),
+}
+
+/// Binds the operator socket at `path` with mode 0660, removing a stale socket file left by a
+/// crashed instance (but refusing when a live server answers there).
+pub async fn bind(path: &Path) -> Result<UnixListener, ServerError> {
+    let err = |action: &'static str| {
+        let path = path.to_owned();
+        move |source| ServerError::Io {
+            action,
+            path,
+            source,
+        }
+    };
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(err("create directory for"))?;
+    }
+    if path.exists() {
+        if UnixStream::connect(path).await.is_ok() {
+            return Err(ServerError::InUse(path.to_owned()));
+        }
+        std::fs::remove_file(path).map_err(err("remove stale socket"))?;
+    }
+    let listener = UnixListener::bind(path).map_err(err("bind"))?;
+    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o660))
+        .map_err(err("set mode 0660 on"))?;
+    Ok(listener)
+}
+
+/// Serves clients until `shutdown` becomes true; then stops accepting and closes connections.
+pub async fn serve<H: Handler>(
+    listener: UnixListener,
+    handler: Arc<H>,
+    policy: AccessPolicy,
+    limits: ServerLimits,
+    mut shutdown: watch::Receiver<bool>,
+) {
+    let clients = Arc::new(Semaphore::new(limits.max_clients));
+    loop {
+        let accepted = tokio::select! {
+            a = listener.accept() => a,
+            _ = shutdown.wait_for(|s| *s) => break,
+        };
+        let stream = match accepted {
+            Ok((s, _)) => s,
+            Err(e) => {
+                warn!(error = %e, "operator socket accept failed");
+                tokio::time::sleep(std::time::Duration::from_millis(10)).await;
+                continue;
+            }
+        };
+        let Ok(permit) = clients.clone().try_acquire_owned() else {
+            reject(stream, ErrorCode::Busy, "too many operator connections").await;
+            continue;
+        };
+        match stream.peer_cred() {
+            Ok(cred) if policy.allows(cred.uid(), cred.gid()) => {}
+            Ok(cred) => {
+                warn!(
+                    uid = cred.uid(),
+                    gid = cred.gid(),
+                    "operator connection refused"
+                );
+                reject(
+                    stream,
+                    ErrorCode::NotReady,
+                    "permission denied: uid/gid not allowed by operator.allowed_uids/gids",
+                )
+                .await;
+                continue;
+            }
+            Err(e) => {
+                warn!(error = %e, "cannot read operator peer credentials");
+                continue;
+            }
+        }
+        let handler = handler.clone();
+        let shutdown = shutdown.clone();
+        tokio::spawn(async move {
+            connection(stream, handler, limits, shutdown).await;
+            drop(permit);
+        });
+    }
+    info!("operator socket closed");
+}
+
+async fn reject(mut stream: UnixStream, code: ErrorCode, message: &str) {
+    let mut line = Reply::err(None, OperatorError::new(code, message)).to_line();
+    line.push('\n');
+    let _ = stream.write_all(line.as_bytes()).await;
+}
+
+async fn connection<H: Handler>(
+    stream: UnixStream,
+    handler: Arc<H>,
+    limits: ServerLimits,
+    mut shutdown: watch::Receiver<bool>,
+) {
+    let (read, mut write) = stream.into_split();
+    let (out_tx, mut out_rx) = mpsc::channel::<String>(256);
+    let writer = tokio::spawn(async move {
+        while let Some(mut line) = out_rx.recv().await {
+            line.push('\n');
+            if write.write_all(line.as_bytes()).await.is_err() {
+                break;
+            }
+        }
+    });
+    let in_flight = Arc::new(Semaphore::new(limits.max_in_flight));
+    let mut reader = LineReader::new(read, limits.max_line_bytes);
+    let mut tasks = tokio::task::JoinSet::new();
+    loop {
+        let frame = tokio::select! {
+            f = reader.next_frame() => f,
+            _ = shutdown.wait_for(|s| *s) => break,
+        };
+        let line = match frame {
+            Ok(Some(Frame::Line(line))) => line,
+            Ok(Some(Frame::TooLarge)) => {
+                let e = OperatorError::new(
+                    ErrorCode::TooLarge,
+                    format!("request line longer than {} bytes", limits.max_line_bytes),
+                );
+                if out_tx.send(Reply::err(None, e).to_line()).await.is_err() {
+                    break;
+                }
+                continue;
+            }
+            Ok(None) => break,
+            Err(e) => {
+                debug!(error = %e, "operator connection read error");
+                break;
+            }
+        };
+        if line.iter().all(|b| b.is_ascii_whitespace()) {
+            continue;
+        }
+        let request = match parse_request(&line) {
+            Ok(r) => r,
+            Err((id, e)) => {
+                if out_tx.send(Reply::err(id, e).to_line()).await.is_err() {
+                    break;
+                }
+                continue;
+            }
+        };
+        let Ok(permit) = in_flight.clone().try_acquire_owned() else {
+            let e = OperatorError::new(ErrorCode::Busy, "too many requests in flight");
+            if out_tx
+                .send(Reply::err(Some(request.id), e).to_line())
+                .await
+                .is_err()
+            {
+                break;
+            }
+            continue;
+        };
+        let handler = handler.clone();
+        let out = out_tx.clone();
+        tasks.spawn(async move {
+            let sink = EventSink::new(Some(request.id), out.clone());
+            let reply = match handler.handle(request.command, sink).await {
+                Ok(result) => Reply::ok(Some(request.id), result),
+                Err(e) => Reply::err(Some(request.id), e),
+            };
+            let _ = out.send(reply.to_line()).await;
+            drop(permit);
+        });
+        // Reap finished tasks so the set does not grow on long-lived connections.
+        while tasks.try_join_next().is_some() {}
+    }
+    // The client closed its sending side: let running requests finish and reply (a client may
+    // half-close after its last request); on shutdown abort them instead.
+    loop {
+        tokio::select! {
+            next = tasks.join_next() => if next.is_none() { break },
+            _ = shutdown.wait_for(|s| *s) => { tasks.abort_all(); break }
+        }
+    }
+    drop(out_tx);
+    let _ = writer.await;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn root_and_own_uid_allowed_strangers_not() {
+        let p = AccessPolicy::default();
+        assert!(p.allows(0, 12345));
+        // SAFETY: no preconditions.
+        let own = unsafe { libc::geteuid() };
+        assert!(p.allows(own, 12345));
+        assert!(!p.allows(54321, 54321) || own == 54321);
+        let p = AccessPolicy {
+            allowed_uids: vec![1000],
+            allowed_gids: vec![2000],
+        };
+        assert!(p.allows(1000, 1));
+        assert!(p.allows(4242, 2000));
+        assert!(!p.allows(4242, 4242) || own == 4242);
+    }
+}

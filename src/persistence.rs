@@ -1,0 +1,264 @@
+//! Persistent service state: applied payload, tare samples and calibration, each a JSON file in
+//! the state directory, written atomically so a crash or power cut leaves the old or the new file,
+//! never a torn one.
+//!
+//! Write protocol ([`atomic_write`]): write a temporary file in the same directory, `fsync` it,
+//! `rename` it over the target (atomic on POSIX file systems), then `fsync` the directory so the
+//! rename itself is durable.
+
+use std::fs::{self, File, OpenOptions};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize, de::DeserializeOwned};
+
+/// Errors of the state store.
+#[derive(Debug, thiserror::Error)]
+pub enum PersistError {
+    /// File-system operation failed.
+    #[error("{action} {path}: {source}")]
+    Io {
+        /// What was being done.
+        action: &'static str,
+        /// The file or directory involved.
+        path: PathBuf,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// A state file exists but does not parse (edited by hand or from another version).
+    #[error("state file {path} is not valid: {message}")]
+    Corrupt {
+        /// The file.
+        path: PathBuf,
+        /// Parser message.
+        message: String,
+    },
+    /// Serialisation failed (should not happen for the service's own types).
+    #[error("cannot serialise state for {path}: {message}")]
+    Serialise {
+        /// The file.
+        path: PathBuf,
+        /// Serialiser message.
+        message: String,
+    },
+}
+
+fn io(action: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> PersistError {
+    let path = path.to_owned();
+    move |source| PersistError::Io {
+        action,
+        path,
+        source,
+    }
+}
+
+/// Replaces `path` with `bytes` atomically: temp file in the same directory, fsync, rename,
+/// fsync of the directory.
+pub fn atomic_write(path: &Path, bytes: &[u8]) -> Result<(), PersistError> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_owned(),
+        _ => PathBuf::from("."),
+    };
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "state".to_owned());
+    // The pid keeps two writers from sharing a temp file; leftovers are harmless and overwritten.
+    let tmp = dir.join(format!(".{name}.tmp.{}", std::process::id()));
+    {
+        let mut file = OpenOptions::new()
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .open(&tmp)
+            .map_err(io("create", &tmp))?;
+        file.write_all(bytes).map_err(io("write", &tmp))?;
+        file.sync_all().map_err(io("fsync", &tmp))?;
+    }
+    fs::rename(&tmp, path).map_err(io("rename onto", path))?;
+    File::open(&dir)
+        .and_then(|d| d.sync_all())
+        .map_err(io("fsync directory", &dir))?;
+    Ok(())
+}
+
+/// A payload applied to the observer, in the last DH frame of the model (frame 7 for the LWR).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct AppliedPayload {
+    /// Mass, kg.
+    pub mass: f64,
+    /// Centre of mass in frame 7, m.
+    pub com: [f64; 3],
+}
+
+/// One static sample: measured joint positions, measured joint torques and the controller's
+/// gravity vector, all averaged over the sample window.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct StaticSample {
+    /// Joint positions, rad.
+    pub q: [f64; 7],
+    /// Measured joint torques (msrJntTrq), Nm.
+    pub tau: [f64; 7],
+    /// Controller's gravity vector, Nm.
+    pub gravity: [f64; 7],
+}
+
+/// Unloaded samples at the estimation poses, subtracted from loaded samples (tare).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Tare {
+    /// The pick pose around which the pattern was driven, rad.
+    pub around: [f64; 7],
+    /// One sample per pose, in pattern order.
+    pub samples: Vec<StaticSample>,
+}
+
+/// Directory holding the service's persistent state.
+#[derive(Debug, Clone)]
+pub struct StateStore {
+    dir: PathBuf,
+}
+
+const PAYLOAD_FILE: &str = "payload.json";
+const TARE_FILE: &str = "tare.json";
+const CALIBRATION_FILE: &str = "calibration.json";
+
+impl StateStore {
+    /// Opens (and creates if missing) the state directory.
+    pub fn open(dir: &Path) -> Result<Self, PersistError> {
+        fs::create_dir_all(dir).map_err(io("create directory", dir))?;
+        Ok(Self {
+            dir: dir.to_owned(),
+        })
+    }
+
+    /// The state directory.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Loads the applied payload; `None` when none was ever applied or it was cleared.
+    pub fn load_payload(&self) -> Result<Option<AppliedPayload>, PersistError> {
+        self.load(PAYLOAD_FILE)
+    }
+
+    /// Persists the applied payload (`None` clears it).
+    pub fn save_payload(&self, payload: Option<&AppliedPayload>) -> Result<(), PersistError> {
+        self.save(PAYLOAD_FILE, payload)
+    }
+
+    /// Loads the tare samples.
+    pub fn load_tare(&self) -> Result<Option<Tare>, PersistError> {
+        self.load(TARE_FILE)
+    }
+
+    /// Persists the tare samples (`None` clears them).
+    pub fn save_tare(&self, tare: Option<&Tare>) -> Result<(), PersistError> {
+        self.save(TARE_FILE, tare)
+    }
+
+    /// Loads the controller-model calibration (opaque JSON produced by the estimator).
+    pub fn load_calibration(&self) -> Result<Option<serde_json::Value>, PersistError> {
+        self.load(CALIBRATION_FILE)
+    }
+
+    /// Persists the calibration (`None` clears it).
+    pub fn save_calibration(
+        &self,
+        calibration: Option<&serde_json::Value>,
+    ) -> Result<(), PersistError> {
+        self.save(CALIBRATION_FILE, calibration)
+    }
+
+    fn load<T: DeserializeOwned>(&self, name: &str) -> Result<Option<T>, PersistError> {
+        let path = self.dir.join(name);
+        let text = match fs::read_to_string(&path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(e) => return Err(io("read", &path)(e)),
+        };
+        // A cleared entry is stored as JSON `null`.
+        serde_json::from_str::<Option<T>>(&text).map_err(|e| PersistError::Corrupt {
+            path,
+            message: e.to_string(),
+        })
+    }
+
+    fn save<T: Serialize>(&self, name: &str, value: Option<&T>) -> Result<(), PersistError> {
+        let path = self.dir.join(name);
+        let mut text =
+            serde_json::to_string_pretty(&value).map_err(|e| PersistError::Serialise {
+                path: path.clone(),
+                message: e.to_string(),
+            })?;
+        text.push('\n');
+        atomic_write(&path, text.as_bytes())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn payload_round_trips_and_clears() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = StateStore::open(dir.path()).unwrap();
+        assert_eq!(store.load_payload().unwrap(), None);
+        let p = AppliedPayload {
+            mass: 3.028,
+            com: [0.0, 0.0, 0.119],
+        };
+        store.save_payload(Some(&p)).unwrap();
+        let reopened = StateStore::open(dir.path()).unwrap();
+        assert_eq!(reopened.load_payload().unwrap(), Some(p));
+        reopened.save_payload(None).unwrap();
+        assert_eq!(reopened.load_payload().unwrap(), None);
+    }
+
+    #[test]
+    fn tare_and_calibration_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = StateStore::open(&dir.path().join("nested/state")).unwrap();
+        let tare = Tare {
+            around: [0.1; 7],
+            samples: vec![StaticSample {
+                q: [0.2; 7],
+                tau: [1.5; 7],
+                gravity: [-1.0; 7],
+            }],
+        };
+        store.save_tare(Some(&tare)).unwrap();
+        assert_eq!(store.load_tare().unwrap(), Some(tare));
+        let cal = serde_json::json!({"delta": [1.0, 2.0]});
+        store.save_calibration(Some(&cal)).unwrap();
+        assert_eq!(store.load_calibration().unwrap(), Some(cal));
+    }
+
+    #[test]
+    fn corrupt_file_is_reported_not_ignored() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = StateStore::open(dir.path()).unwrap();
+        fs::write(dir.path().join(PAYLOAD_FILE), "{\"mass\": 3.0").unwrap();
+        assert!(matches!(
+            store.load_payload(),
+            Err(PersistError::Corrupt { .. })
+        ));
+    }
+
+    #[test]
+    fn atomic_write_leaves_no_temp_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.json");
+        atomic_write(&path, b"one").unwrap();
+        atomic_write(&path, b"two").unwrap();
+        assert_eq!(fs::read(&path).unwrap(), b"two");
+        let names: Vec<_> = fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names.len(), 1, "{names:?}");
+    }
+}

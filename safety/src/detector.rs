@@ -1,0 +1,350 @@
+//! Collision detection on the residual: per-joint thresholds, optional velocity scheduling,
+//! hysteresis and debounce.
+//!
+//! A joint is *over* when |r_j| > θ_j with θ_j = θ0_j + c_j·|q̇_j|. A contact starts after
+//! `debounce_samples` consecutive samples with at least one joint over (the onset sample is the
+//! last of them) and ends after `release_samples` consecutive samples with every
+//! |r_j| < release_ratio·θ_j. Samples whose residual was not updated (rejected, resynchronised)
+//! leave the state and counters unchanged.
+
+use nalgebra::SVector;
+use serde::{Deserialize, Serialize};
+
+use crate::error::ConfigError;
+
+/// Default collision threshold on every joint [Nm] (the paper's 6 Nm).
+pub const DEFAULT_THRESHOLD_NM: f64 = 6.0;
+
+/// Set of joints as a bit mask (bit j = joint j, 0-based; N ≤ 32).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct JointSet(pub u32);
+
+impl JointSet {
+    /// Whether joint `j` (0-based) is in the set.
+    pub fn contains(self, j: usize) -> bool {
+        j < 32 && self.0 & (1 << j) != 0
+    }
+    /// Adds joint `j` (0-based; ignored for j ≥ 32).
+    pub fn insert(&mut self, j: usize) {
+        if j < 32 {
+            self.0 |= 1 << j;
+        }
+    }
+    /// True when no joint is in the set.
+    pub fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+    /// Highest (most distal) joint index in the set, 0-based.
+    pub fn most_distal(self) -> Option<usize> {
+        if self.0 == 0 {
+            None
+        } else {
+            Some(31 - self.0.leading_zeros() as usize)
+        }
+    }
+    /// Number of joints in the set.
+    pub fn len(self) -> usize {
+        self.0.count_ones() as usize
+    }
+}
+
+/// Detector configuration for N joints.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DetectorConfig<const N: usize> {
+    /// Static thresholds θ0 [Nm] per joint.
+    pub thresholds_nm: SVector<f64, N>,
+    /// Velocity scheduling c [Nm·s/rad] per joint: θ = θ0 + c·|q̇| (zero = static threshold).
+    pub velocity_coefficients: SVector<f64, N>,
+    /// Release level as a fraction of θ (hysteresis), in (0, 1].
+    pub release_ratio: f64,
+    /// Consecutive samples over threshold before a contact is declared (≥ 1).
+    pub debounce_samples: u32,
+    /// Consecutive samples below the release level before a contact ends (≥ 1).
+    pub release_samples: u32,
+}
+
+impl<const N: usize> Default for DetectorConfig<N> {
+    /// 6 Nm static thresholds, release at 80 % of θ, debounce 2 samples, release after 20.
+    fn default() -> Self {
+        Self {
+            thresholds_nm: SVector::repeat(DEFAULT_THRESHOLD_NM),
+            velocity_coefficients: SVector::zeros(),
+            release_ratio: 0.8,
+            debounce_samples: 2,
+            release_samples: 20,
+        }
+    }
+}
+
+impl<const N: usize> DetectorConfig<N> {
+    /// Checks thresholds, coefficients and counts.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        for j in 0..N {
+            let t = self.thresholds_nm[j];
+            let c = self.velocity_coefficients[j];
+            if !(t.is_finite() && t > 0.0 && c.is_finite() && c >= 0.0) {
+                return Err(ConfigError::Threshold { joint: j });
+            }
+        }
+        if !(self.release_ratio > 0.0 && self.release_ratio <= 1.0)
+            || self.debounce_samples == 0
+            || self.release_samples == 0
+        {
+            return Err(ConfigError::Hysteresis);
+        }
+        Ok(())
+    }
+
+    /// Effective thresholds θ0 + c·|q̇| [Nm] at joint velocity `qd` [rad/s].
+    pub fn thresholds_at(&self, qd: &SVector<f64, N>) -> SVector<f64, N> {
+        self.thresholds_nm + self.velocity_coefficients.component_mul(&qd.abs())
+    }
+}
+
+/// A detected collision (emitted once, at the onset).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CollisionEvent<const N: usize> {
+    /// Observer cycle of the onset sample.
+    pub cycle: u64,
+    /// Time of the onset sample since the observer started [s].
+    pub time_s: f64,
+    /// Joints over threshold at the onset.
+    pub joints_over: JointSet,
+    /// Residual at the onset [Nm].
+    pub residual: SVector<f64, N>,
+    /// Effective thresholds at the onset [Nm].
+    pub thresholds: SVector<f64, N>,
+    /// Isolated link, 0-based (link i moves with joint i): the most distal joint over threshold.
+    pub isolated_link: usize,
+    /// Estimated contact wrench (F [N]; moment [Nm] about the contact point), base frame, for
+    /// contacts isolated on the last link; filled by [`crate::monitor::CollisionMonitor`].
+    pub contact_wrench: Option<SVector<f64, 6>>,
+}
+
+/// Detector state after a sample.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum Detection<const N: usize> {
+    /// No contact.
+    Clear,
+    /// Some joint over threshold, debounce not yet satisfied.
+    Pending,
+    /// A contact started at this sample.
+    Onset(CollisionEvent<N>),
+    /// Contact continues.
+    InContact,
+    /// Contact ended at this sample; `duration_s` since the onset [s].
+    Released {
+        /// Contact duration [s].
+        duration_s: f64,
+    },
+}
+
+/// Threshold/hysteresis/debounce state machine.
+#[derive(Debug, Clone)]
+pub struct CollisionDetector<const N: usize> {
+    config: DetectorConfig<N>,
+    over_count: u32,
+    below_count: u32,
+    in_contact: bool,
+    onset_time_s: f64,
+    events: u64,
+}
+
+impl<const N: usize> CollisionDetector<N> {
+    /// New detector; refuses an invalid configuration.
+    pub fn new(config: DetectorConfig<N>) -> Result<Self, ConfigError> {
+        config.validate()?;
+        Ok(Self {
+            config,
+            over_count: 0,
+            below_count: 0,
+            in_contact: false,
+            onset_time_s: 0.0,
+            events: 0,
+        })
+    }
+
+    /// The configuration in use.
+    pub fn config(&self) -> &DetectorConfig<N> {
+        &self.config
+    }
+
+    /// Whether a contact is currently active.
+    pub fn in_contact(&self) -> bool {
+        self.in_contact
+    }
+
+    /// Number of onsets since construction.
+    pub fn event_count(&self) -> u64 {
+        self.events
+    }
+
+    /// Returns to the no-contact state.
+    pub fn reset(&mut self) {
+        self.over_count = 0;
+        self.below_count = 0;
+        self.in_contact = false;
+    }
+
+    /// Joints with |r_j| over the effective threshold at velocity `qd`.
+    pub fn joints_over(
+        &self,
+        residual: &SVector<f64, N>,
+        qd: &SVector<f64, N>,
+    ) -> (JointSet, SVector<f64, N>) {
+        let thresholds = self.config.thresholds_at(qd);
+        let mut over = JointSet::default();
+        for j in 0..N {
+            if residual[j].abs() > thresholds[j] {
+                over.insert(j);
+            }
+        }
+        (over, thresholds)
+    }
+
+    /// Processes one updated residual `residual` [Nm] at velocity `qd` [rad/s], observer
+    /// cycle `cycle` and time `time_s` [s].
+    pub fn update(
+        &mut self,
+        residual: &SVector<f64, N>,
+        qd: &SVector<f64, N>,
+        cycle: u64,
+        time_s: f64,
+    ) -> Detection<N> {
+        let (over, thresholds) = self.joints_over(residual, qd);
+        if self.in_contact {
+            let released =
+                (0..N).all(|j| residual[j].abs() < self.config.release_ratio * thresholds[j]);
+            self.below_count = if released { self.below_count + 1 } else { 0 };
+            if self.below_count >= self.config.release_samples {
+                self.in_contact = false;
+                self.below_count = 0;
+                self.over_count = 0;
+                return Detection::Released {
+                    duration_s: time_s - self.onset_time_s,
+                };
+            }
+            return Detection::InContact;
+        }
+        if over.is_empty() {
+            self.over_count = 0;
+            return Detection::Clear;
+        }
+        self.over_count += 1;
+        if self.over_count < self.config.debounce_samples {
+            return Detection::Pending;
+        }
+        self.in_contact = true;
+        self.below_count = 0;
+        self.onset_time_s = time_s;
+        self.events += 1;
+        Detection::Onset(CollisionEvent {
+            cycle,
+            time_s,
+            joints_over: over,
+            residual: *residual,
+            thresholds,
+            isolated_link: over.most_distal().unwrap_or(0),
+            contact_wrench: None,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector3;
+
+    fn detector(debounce: u32, release: u32) -> CollisionDetector<3> {
+        CollisionDetector::new(DetectorConfig {
+            thresholds_nm: Vector3::new(6.0, 6.0, 2.0),
+            velocity_coefficients: Vector3::new(0.0, 4.0, 0.0),
+            release_ratio: 0.5,
+            debounce_samples: debounce,
+            release_samples: release,
+        })
+        .unwrap()
+    }
+
+    #[test]
+    fn debounce_hysteresis_and_isolation() {
+        let mut d = detector(3, 2);
+        let v0 = Vector3::zeros();
+        let hit = Vector3::new(7.0, 0.0, 2.5);
+        assert_eq!(
+            d.update(&Vector3::new(5.9, 0.0, 1.9), &v0, 1, 0.001),
+            Detection::Clear
+        );
+        assert_eq!(d.update(&hit, &v0, 2, 0.002), Detection::Pending);
+        assert_eq!(d.update(&hit, &v0, 3, 0.003), Detection::Pending);
+        let Detection::Onset(event) = d.update(&hit, &v0, 4, 0.004) else {
+            panic!("no onset")
+        };
+        assert_eq!(event.cycle, 4);
+        assert_eq!(event.isolated_link, 2);
+        assert!(
+            event.joints_over.contains(0)
+                && !event.joints_over.contains(1)
+                && event.joints_over.contains(2)
+        );
+        // Between release level (3 Nm / 1 Nm) and threshold: contact continues.
+        assert_eq!(
+            d.update(&Vector3::new(4.0, 0.0, 0.5), &v0, 5, 0.005),
+            Detection::InContact
+        );
+        assert_eq!(
+            d.update(&Vector3::new(2.0, 0.0, 0.5), &v0, 6, 0.006),
+            Detection::InContact
+        );
+        let Detection::Released { duration_s } =
+            d.update(&Vector3::new(2.0, 0.0, 0.5), &v0, 7, 0.007)
+        else {
+            panic!("no release")
+        };
+        assert!((duration_s - 0.003).abs() < 1e-12);
+        assert_eq!(d.event_count(), 1);
+    }
+
+    #[test]
+    fn debounce_restarts_after_a_gap() {
+        let mut d = detector(2, 1);
+        let v0 = Vector3::zeros();
+        let hit = Vector3::new(0.0, 0.0, 3.0);
+        assert_eq!(d.update(&hit, &v0, 1, 0.0), Detection::Pending);
+        assert_eq!(d.update(&Vector3::zeros(), &v0, 2, 0.0), Detection::Clear);
+        assert_eq!(d.update(&hit, &v0, 3, 0.0), Detection::Pending);
+        assert!(matches!(d.update(&hit, &v0, 4, 0.0), Detection::Onset(_)));
+    }
+
+    #[test]
+    fn velocity_scheduled_threshold_raises_the_level() {
+        let mut d = detector(1, 1);
+        let r = Vector3::new(0.0, 8.0, 0.0);
+        assert!(matches!(
+            d.update(&r, &Vector3::new(0.0, 0.4, 0.0), 1, 0.0),
+            Detection::Onset(_)
+        ));
+        let mut d = detector(1, 1);
+        assert_eq!(
+            d.update(&r, &Vector3::new(0.0, -0.6, 0.0), 1, 0.0),
+            Detection::Clear
+        );
+    }
+
+    #[test]
+    fn invalid_configurations_are_refused() {
+        let mut c = DetectorConfig::<3>::default();
+        c.thresholds_nm[1] = f64::NAN;
+        assert!(CollisionDetector::new(c).is_err());
+        let c = DetectorConfig::<3> {
+            release_ratio: 1.5,
+            ..Default::default()
+        };
+        assert!(CollisionDetector::new(c).is_err());
+        let c = DetectorConfig::<3> {
+            debounce_samples: 0,
+            ..Default::default()
+        };
+        assert!(CollisionDetector::new(c).is_err());
+    }
+}

@@ -1,0 +1,61 @@
+//! Configuration errors (returned when building or reconfiguring; never from the hot path).
+
+/// Why a configuration was refused.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum ConfigError {
+    /// Sample period not finite or not positive.
+    #[error("sample period {0} s must be finite and positive")]
+    SamplePeriod(f64),
+    /// Observer gain not finite or not positive.
+    #[error("observer gain {gain} 1/s on joint {joint} (0-based) must be finite and positive")]
+    Gain {
+        /// Joint index, 0-based.
+        joint: usize,
+        /// Offending gain [1/s].
+        gain: f64,
+    },
+    /// Euler form unstable at the largest accepted time step (K·T ≥ 2).
+    #[error("Euler observer unstable on joint {joint}: gain {gain} 1/s × period {period} s ≥ 2")]
+    UnstableEuler {
+        /// Joint index, 0-based.
+        joint: usize,
+        /// Gain [1/s].
+        gain: f64,
+        /// Largest accepted period [s].
+        period: f64,
+    },
+    /// Time-step acceptance band invalid.
+    #[error("time-step band [{min}, {max}] × T invalid (need 0 < min ≤ 1 ≤ max)")]
+    TimeStepBand {
+        /// Lower factor.
+        min: f64,
+        /// Upper factor.
+        max: f64,
+    },
+    /// Velocity filter cut-off not finite/positive.
+    #[error("velocity filter cut-off must be finite and positive")]
+    VelocityFilter,
+    /// Friction parameters negative or non-finite.
+    #[error("friction parameters must be finite, non-negative, with positive smoothing velocity")]
+    Friction,
+    /// Stale limit of zero samples.
+    #[error("stale limit must be at least one sample")]
+    StaleLimit,
+    /// Threshold configuration invalid.
+    #[error(
+        "threshold on joint {joint} (0-based) must be finite and positive, velocity coefficient finite and non-negative"
+    )]
+    Threshold {
+        /// Joint index, 0-based.
+        joint: usize,
+    },
+    /// Hysteresis ratio outside (0, 1] or zero debounce/release counts.
+    #[error("release ratio must be in (0, 1] and debounce/release counts at least 1")]
+    Hysteresis,
+    /// Pause duration not finite or negative.
+    #[error("pause duration {0} s must be finite and non-negative")]
+    Pause(f64),
+    /// Wrench-estimation damping not finite or negative.
+    #[error("damping {0} must be finite and non-negative")]
+    Damping(f64),
+}

@@ -13,7 +13,9 @@
 pub mod coefficients;
 pub mod error;
 pub mod expr;
+pub mod filter;
 pub mod lsq;
+pub mod samples;
 
 pub use coefficients::{CoefficientEstimate, CoefficientSet};
 pub use error::EstimatorError;

@@ -1,1 +1,20 @@
-//! placeholder
+//! Simulated KUKA KRC2lr controller speaking FRI 1.x, with LWR 4+ physics.
+//!
+//! The crate is the robot for every test, benchmark and demo: it behaves like the real
+//! controller on the wire (916-byte measurements, 376-byte commands, statistics, quality,
+//! OFF/MON/CMD, the KRL handshake of the project contracts) and like the real arm in physics
+//! (payload, motor-side friction, sensor noise/offset/drift/quantisation, a perturbed controller
+//! model without the payload, contacts). See docs/mock-robot.md.
+
+pub mod config;
+pub mod contact;
+pub mod error;
+pub mod faults;
+pub mod friction;
+pub mod krl;
+pub mod motion;
+pub mod sensors;
+pub mod stats;
+
+pub use config::SimulationConfig;
+pub use error::SimError;

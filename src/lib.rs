@@ -5,6 +5,7 @@
 //! moves, iceoryx2 publication, the 1 kHz loop hook and the operator workflows.
 
 pub mod config;
+pub mod ipc;
 pub mod motion;
 pub mod operator;
 pub mod persistence;

@@ -1,1 +1,52 @@
-//! placeholder
+//! Rigid-body dynamics of serial robot arms, in the style of Pinocchio: an immutable [`Model`],
+//! a preallocated [`Data`] workspace, and algorithms as free functions named after the textbook
+//! algorithm ([`rnea`], [`crba`], [`compute_generalized_gravity`], ...).
+//!
+//! Conventions: SI units, angles in rad. Link frame i is the frame of the body moved by joint i
+//! (for the built-in LWR: classical DH frame i). Link inertial parameters ([`InertialParameters`])
+//! are expressed in their link frame, with the inertia tensor about the link-frame origin (the
+//! paper's J). g(q) follows τ = M(q)q̈ + C(q,q̇)q̇ + g(q): it is the torque that holds the arm.
+//! Spatial vectors used internally put the angular part first; Jacobians returned to callers put
+//! the linear part first (rows v; ω).
+//!
+//! All algorithms for fixed N are allocation-free (proved by `tests/allocations.rs`).
+
+mod base_parameters;
+mod coriolis;
+mod crba;
+mod data;
+mod error;
+mod forward_dynamics;
+mod inertia;
+mod joint;
+mod kinematics;
+mod model;
+mod regressor;
+mod rnea;
+mod robots;
+mod spatial;
+
+pub use base_parameters::{
+    BaseParameters, RegressorKind, base_parameters, base_parameters_of_columns,
+};
+pub use coriolis::{
+    coriolis_matrix, coriolis_transpose_times_velocity, mass_matrix_partial_derivatives,
+    mass_matrix_time_derivative,
+};
+pub use crba::crba;
+pub use data::Data;
+pub use error::{DynamicsError, check_finite};
+pub use forward_dynamics::forward_dynamics;
+pub use inertia::InertialParameters;
+pub use joint::{ClassicalDh, Joint, JointKind, ModifiedDh};
+pub use kinematics::{flange_jacobian, flange_pose, forward_kinematics, point_jacobian};
+pub use model::{JointLimits, Model};
+pub use regressor::{
+    gravity_regressor, joint_torque_regressor, payload_gravity_regressor, payload_regressor,
+};
+pub use rnea::{compute_generalized_gravity, nonlinear_effects, rnea};
+pub use robots::{
+    LWR_BASE_TO_SHOULDER, LWR_FLANGE_OFFSET, STANDARD_GRAVITY, inertia_tensor, lwr4,
+    lwr4_heavy_payload, lwr4_light_payload, lwr4_limits, lwr4_links, lwr4_modified_dh, planar_2r,
+    planar_2r_payload,
+};

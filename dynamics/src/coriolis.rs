@@ -1,0 +1,144 @@
+//! Coriolis/centrifugal terms: the Christoffel-symbol matrix C(q, q̇), ∂M/∂q, Ṁ, and an O(n)
+//! recursion for Cᵀ(q, q̇)q̇ = ∂(½ q̇ᵀM(q)q̇)/∂q used by momentum observers.
+
+use nalgebra::{Matrix3, Matrix6, SMatrix, SVector, Vector6};
+
+use crate::data::Data;
+use crate::inertia::skew;
+use crate::kinematics::update_world_poses;
+use crate::model::Model;
+use crate::rnea::forward_pass;
+use crate::spatial::{Motion, Pose};
+
+fn to_vector6(m: &Motion) -> Vector6<f64> {
+    Vector6::new(m.ang.x, m.ang.y, m.ang.z, m.lin.x, m.lin.y, m.lin.z)
+}
+
+/// 6×6 motion cross-product matrix of `m` (angular first).
+fn cross_motion_matrix(m: &Vector6<f64>) -> Matrix6<f64> {
+    let w = skew(&m.fixed_rows::<3>(0).into_owned());
+    let v = skew(&m.fixed_rows::<3>(3).into_owned());
+    let mut out = Matrix6::zeros();
+    out.fixed_view_mut::<3, 3>(0, 0).copy_from(&w);
+    out.fixed_view_mut::<3, 3>(3, 0).copy_from(&v);
+    out.fixed_view_mut::<3, 3>(3, 3).copy_from(&w);
+    out
+}
+
+/// 6×6 spatial inertia of a link in the base frame, given the link pose in the base.
+fn spatial_inertia_in_base(params: &crate::InertialParameters, pose: &Pose) -> Matrix6<f64> {
+    let sh = skew(&params.first_moment);
+    let mut body = Matrix6::zeros();
+    body.fixed_view_mut::<3, 3>(0, 0)
+        .copy_from(&params.inertia_origin);
+    body.fixed_view_mut::<3, 3>(0, 3).copy_from(&sh);
+    body.fixed_view_mut::<3, 3>(3, 0).copy_from(&sh.transpose());
+    body.fixed_view_mut::<3, 3>(3, 3)
+        .copy_from(&(Matrix3::identity() * params.mass));
+    // Motion transform base → link: ω_b = Rᵀω, v_b = Rᵀ(v − p × ω).
+    let rt = pose.rot.transpose();
+    let mut x = Matrix6::zeros();
+    x.fixed_view_mut::<3, 3>(0, 0).copy_from(&rt);
+    x.fixed_view_mut::<3, 3>(3, 3).copy_from(&rt);
+    x.fixed_view_mut::<3, 3>(3, 0)
+        .copy_from(&(-rt * skew(&pose.trans)));
+    x.transpose() * body * x
+}
+
+/// Partial derivatives ∂M/∂q_k (k = 0..N), each N×N in kg·m²/rad, from M = Σ_b J_bᵀ I_b J_b in
+/// the base frame (an independent route from the CRBA; O(n⁴), meant for analysis and tests).
+pub fn mass_matrix_partial_derivatives<const N: usize>(
+    model: &Model<N>,
+    data: &mut Data<N>,
+    q: &SVector<f64, N>,
+) -> [SMatrix<f64, N, N>; N] {
+    update_world_poses(model, data, q);
+    let twists: [Vector6<f64>; N] = std::array::from_fn(|j| {
+        to_vector6(&data.link_in_base[j].motion_to_parent(model.joints()[j].motion_subspace()))
+    });
+    let crosses: [Matrix6<f64>; N] = std::array::from_fn(|k| cross_motion_matrix(&twists[k]));
+    let mut derivatives = [SMatrix::<f64, N, N>::zeros(); N];
+    for b in 0..N {
+        let inertia = spatial_inertia_in_base(&model.links()[b], &data.link_in_base[b]);
+        let mut jac = SMatrix::<f64, 6, N>::zeros();
+        for (j, twist) in twists.iter().enumerate().take(b + 1) {
+            jac.set_column(j, twist);
+        }
+        let inertia_jac = inertia * jac;
+        for k in 0..=b {
+            // ∂J_b/∂q_k: column j (k < j ≤ b) is S_k ×m S_j.
+            let mut djac = SMatrix::<f64, 6, N>::zeros();
+            for (j, twist) in twists.iter().enumerate().take(b + 1).skip(k + 1) {
+                djac.set_column(j, &(crosses[k] * twist));
+            }
+            // ∂I_b/∂q_k = S_k×* I − I S_k×m, with S×* = −(S×m)ᵀ.
+            let dinertia = -crosses[k].transpose() * inertia - inertia * crosses[k];
+            let term = djac.transpose() * inertia_jac;
+            derivatives[k] += term + term.transpose() + jac.transpose() * dinertia * jac;
+        }
+    }
+    derivatives
+}
+
+/// Time derivative Ṁ(q, q̇) = Σ_k ∂M/∂q_k q̇_k, kg·m²/s.
+pub fn mass_matrix_time_derivative<const N: usize>(
+    model: &Model<N>,
+    data: &mut Data<N>,
+    q: &SVector<f64, N>,
+    qd: &SVector<f64, N>,
+) -> SMatrix<f64, N, N> {
+    let derivatives = mass_matrix_partial_derivatives(model, data, q);
+    let mut mdot = SMatrix::<f64, N, N>::zeros();
+    for (k, d) in derivatives.iter().enumerate() {
+        mdot += d * qd[k];
+    }
+    mdot
+}
+
+/// Coriolis/centrifugal matrix C(q, q̇) from the Christoffel symbols of M (so Ṁ − 2C is skew),
+/// N·m·s/rad; C(q,q̇)q̇ is the Coriolis/centrifugal torque.
+pub fn coriolis_matrix<const N: usize>(
+    model: &Model<N>,
+    data: &mut Data<N>,
+    q: &SVector<f64, N>,
+    qd: &SVector<f64, N>,
+) -> SMatrix<f64, N, N> {
+    let dm = mass_matrix_partial_derivatives(model, data, q);
+    let mut c = SMatrix::<f64, N, N>::zeros();
+    for i in 0..N {
+        for j in 0..N {
+            let mut sum = 0.0;
+            for k in 0..N {
+                sum += 0.5 * (dm[k][(i, j)] + dm[j][(i, k)] - dm[i][(j, k)]) * qd[k];
+            }
+            c[(i, j)] = sum;
+        }
+    }
+    c
+}
+
+/// Cᵀ(q, q̇)q̇ = ∂(½ q̇ᵀM(q)q̇)/∂q, Nm, by an O(n) recursion: with link momenta h_b = I_b v_b,
+/// (Cᵀq̇)_i = −S_iᵀ (v_i ×* Σ_{b ≥ i} h_b). Allocation-free.
+pub fn coriolis_transpose_times_velocity<const N: usize>(
+    model: &Model<N>,
+    data: &mut Data<N>,
+    q: &SVector<f64, N>,
+    qd: &SVector<f64, N>,
+) -> SVector<f64, N> {
+    let zero = SVector::<f64, N>::zeros();
+    // Reuses the RNEA forward pass for link velocities (its accelerations are not needed).
+    forward_pass(model, data, q, qd, &zero);
+    for i in 0..N {
+        data.force[i] = model.links()[i].apply(&data.velocity[i]);
+    }
+    let mut out = SVector::<f64, N>::zeros();
+    for i in (0..N).rev() {
+        let s = model.joints()[i].motion_subspace();
+        out[i] = -s.dot(&data.velocity[i].cross_force(&data.force[i]));
+        if i > 0 {
+            let to_parent = data.link_in_parent[i].force_to_parent(&data.force[i]);
+            data.force[i - 1] = data.force[i - 1].add(&to_parent);
+        }
+    }
+    out
+}

@@ -1,0 +1,38 @@
+//! Preallocated workspace for the algorithms (Pinocchio's `Data`).
+
+use crate::inertia::InertialParameters;
+use crate::model::Model;
+use crate::spatial::{Force, Motion, Pose};
+
+/// Scratch space for the algorithms of one model; create once with [`Data::new`] and reuse, so
+/// that no algorithm allocates. Its contents after a call are an implementation detail.
+#[derive(Debug, Clone)]
+pub struct Data<const N: usize> {
+    /// Pose of link i in link i−1 (link 0 in the base).
+    pub(crate) link_in_parent: [Pose; N],
+    /// Pose of link i in the base.
+    pub(crate) link_in_base: [Pose; N],
+    /// Spatial velocity of link i in its own frame.
+    pub(crate) velocity: [Motion; N],
+    /// Spatial acceleration (gravity included) of link i in its own frame.
+    pub(crate) acceleration: [Motion; N],
+    /// Spatial force or momentum accumulator of link i in its own frame.
+    pub(crate) force: [Force; N],
+    /// Composite inertia of the subtree rooted at link i, in link frame i.
+    pub(crate) composite: [InertialParameters; N],
+}
+
+impl<const N: usize> Data<N> {
+    /// Workspace sized for `model`.
+    pub fn new(model: &Model<N>) -> Self {
+        let _ = model;
+        Self {
+            link_in_parent: [Pose::IDENTITY; N],
+            link_in_base: [Pose::IDENTITY; N],
+            velocity: [Motion::ZERO; N],
+            acceleration: [Motion::ZERO; N],
+            force: [Force::ZERO; N],
+            composite: [InertialParameters::zero(); N],
+        }
+    }
+}

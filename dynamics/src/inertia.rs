@@ -1,0 +1,182 @@
+//! Inertial parameters of one rigid body in its link frame (paper eqs. 5, 9-10, 18, 20).
+
+use nalgebra::{Matrix3, SVector, Vector3};
+
+use crate::error::{DynamicsError, check_finite_slice};
+use crate::spatial::{Force, Motion};
+
+/// Inertial parameters of one rigid body, expressed in its link (DH) frame.
+///
+/// This is the linear parametrisation of the paper (eqs. 9-10): mass, first moment m·c and the
+/// inertia tensor J about the link-frame origin. Torques are linear in these ten numbers.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct InertialParameters {
+    /// Mass m, kg.
+    pub mass: f64,
+    /// First moment of mass m·c, kg·m, in the link frame (c = centre of mass).
+    pub first_moment: Vector3<f64>,
+    /// Inertia tensor about the link-frame origin, kg·m², in the link frame (the paper's J);
+    /// products of inertia follow the tensor convention (J_xy is the (0,1) entry, = −∫xy dm).
+    pub inertia_origin: Matrix3<f64>,
+}
+
+/// Skew-symmetric matrix S(v) with S(v)·w = v × w.
+pub(crate) fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
+    Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
+}
+
+impl InertialParameters {
+    /// The massless body (all ten parameters zero).
+    pub fn zero() -> Self {
+        Self {
+            mass: 0.0,
+            first_moment: Vector3::zeros(),
+            inertia_origin: Matrix3::zeros(),
+        }
+    }
+
+    /// Body of `mass` kg with centre of mass `com` (m, link frame) and inertia `inertia_about_com`
+    /// (kg·m², about the CoM, axes parallel to the link frame); Steiner's theorem (eq. 18) moves
+    /// the inertia to the link-frame origin.
+    pub fn from_com(mass: f64, com: Vector3<f64>, inertia_about_com: Matrix3<f64>) -> Self {
+        let s = skew(&com);
+        Self {
+            mass,
+            first_moment: com * mass,
+            inertia_origin: inertia_about_com + s.transpose() * s * mass,
+        }
+    }
+
+    /// Point mass of `mass` kg at `com` (m, link frame), with no inertia about its own CoM.
+    pub fn point_mass(mass: f64, com: Vector3<f64>) -> Self {
+        Self::from_com(mass, com, Matrix3::zeros())
+    }
+
+    /// Centre of mass in the link frame, m; `None` when the mass is zero.
+    pub fn com(&self) -> Option<Vector3<f64>> {
+        if self.mass == 0.0 {
+            None
+        } else {
+            Some(self.first_moment / self.mass)
+        }
+    }
+
+    /// Inertia tensor about the centre of mass (axes of the link frame), kg·m²; equals
+    /// `inertia_origin` for a massless body.
+    pub fn inertia_about_com(&self) -> Matrix3<f64> {
+        if self.mass == 0.0 {
+            return self.inertia_origin;
+        }
+        // J_c = J_o − m S(c)ᵀS(c) = J_o + S(h)S(h)/m
+        let s = skew(&self.first_moment);
+        self.inertia_origin + s * s / self.mass
+    }
+
+    /// The ten parameters (m, mcx, mcy, mcz, Jxx, Jxy, Jxz, Jyy, Jyz, Jzz) of eqs. 9-10 and 20;
+    /// units kg, kg·m, kg·m².
+    pub fn to_vector(&self) -> SVector<f64, 10> {
+        let h = &self.first_moment;
+        let j = &self.inertia_origin;
+        SVector::<f64, 10>::from_column_slice(&[
+            self.mass,
+            h.x,
+            h.y,
+            h.z,
+            j[(0, 0)],
+            j[(0, 1)],
+            j[(0, 2)],
+            j[(1, 1)],
+            j[(1, 2)],
+            j[(2, 2)],
+        ])
+    }
+
+    /// Inverse of [`InertialParameters::to_vector`]; the tensor is built symmetric.
+    pub fn from_vector(v: &SVector<f64, 10>) -> Self {
+        Self {
+            mass: v[0],
+            first_moment: Vector3::new(v[1], v[2], v[3]),
+            inertia_origin: Matrix3::new(v[4], v[5], v[6], v[5], v[7], v[8], v[6], v[8], v[9]),
+        }
+    }
+
+    /// Parameters of this body plus another body expressed in the same frame (eqs. 16-19, 17).
+    pub fn plus(&self, other: &InertialParameters) -> Self {
+        Self {
+            mass: self.mass + other.mass,
+            first_moment: self.first_moment + other.first_moment,
+            inertia_origin: self.inertia_origin + other.inertia_origin,
+        }
+    }
+
+    /// The same body expressed in a frame F, given this body's frame pose in F (rotation
+    /// `rotation`, origin `translation` in m): c_F = R·c + p, J moved with Steiner.
+    pub fn transformed(&self, rotation: &Matrix3<f64>, translation: &Vector3<f64>) -> Self {
+        let h_rot = rotation * self.first_moment;
+        let sp = skew(translation);
+        let sh = skew(&h_rot);
+        // J_F = R J Rᵀ − m S(p)² − S(p)S(Rh) − S(Rh)S(p)
+        let inertia = rotation * self.inertia_origin * rotation.transpose()
+            - sp * sp * self.mass
+            - sp * sh
+            - sh * sp;
+        Self {
+            mass: self.mass,
+            first_moment: translation * self.mass + h_rot,
+            inertia_origin: inertia,
+        }
+    }
+
+    /// Checks that the parameters describe a real rigid body: finite, mass ≥ 0, symmetric tensor,
+    /// inertia about the CoM positive semidefinite and satisfying the triangle inequality.
+    pub fn check_physical(&self) -> Result<(), DynamicsError> {
+        check_finite_slice("mass", &[self.mass])?;
+        check_finite_slice("first_moment", self.first_moment.as_slice())?;
+        check_finite_slice("inertia_origin", self.inertia_origin.as_slice())?;
+        if self.mass < 0.0 {
+            return Err(DynamicsError::NegativeMass { mass: self.mass });
+        }
+        let scale = self.inertia_origin.abs().max().max(f64::MIN_POSITIVE);
+        let asymmetry = (self.inertia_origin - self.inertia_origin.transpose())
+            .abs()
+            .max();
+        if asymmetry > 1e-12 * scale {
+            return Err(DynamicsError::InertiaNotSymmetric { asymmetry });
+        }
+        if self.mass == 0.0 && self.first_moment != Vector3::zeros() {
+            return Err(DynamicsError::FirstMomentWithoutMass {
+                first_moment: [
+                    self.first_moment.x,
+                    self.first_moment.y,
+                    self.first_moment.z,
+                ],
+            });
+        }
+        let about_com = self.inertia_about_com();
+        let sym = (about_com + about_com.transpose()) * 0.5;
+        let mut moments = sym.symmetric_eigenvalues();
+        moments
+            .as_mut_slice()
+            .sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
+        let principal_moments = [moments[0], moments[1], moments[2]];
+        // Rounding in the Steiner shift is relative to the inertia about the origin.
+        let tolerance = 1e-10 * scale;
+        if moments[0] < -tolerance {
+            return Err(DynamicsError::InertiaNotPositive { principal_moments });
+        }
+        if moments[0] + moments[1] < moments[2] - tolerance {
+            return Err(DynamicsError::TriangleInequality { principal_moments });
+        }
+        Ok(())
+    }
+
+    /// Spatial momentum-type product I·v (moment about the frame origin; force), in this frame.
+    #[inline]
+    pub(crate) fn apply(&self, v: &Motion) -> Force {
+        // n = J ω + h × v ; f = m v − h × ω
+        Force {
+            ang: self.inertia_origin * v.ang + self.first_moment.cross(&v.lin),
+            lin: v.lin * self.mass - self.first_moment.cross(&v.ang),
+        }
+    }
+}

@@ -4,4 +4,5 @@
 //! Spec: `shared/docs/fri-1x-protocol.md`; our own summary: `docs/fri.md`.
 
 pub mod handshake;
+pub mod session;
 pub mod wire;

@@ -1,0 +1,548 @@
+//! Sans-IO FRI session (after quinn-proto): datagrams and time in, reply datagrams out.
+//!
+//! Each cycle: [`Session::receive`] validates a measurement datagram (source, length, header,
+//! finiteness, enum values, sequence number), updates counters and keeps it as the last good
+//! measurement; the application looks at it and fills a [`DesiredCommand`];
+//! [`Session::respond`] turns that into a command the controller accepts and encodes it.
+//!
+//! Rules enforced on every reply (spec §2.6), so application code cannot trip the controller:
+//! - header: our own counter (+1 per reply, wrapping) and the controller's counter reflected;
+//! - mirroring: while the state is not CMD or no drive is powered, `jntPos = cmdJntPos +
+//!   cmdJntPosFriOffset` and the added torque is 0, whatever the application asked;
+//! - command flags: those of the selected strategy while in monitor mode, frozen at command-mode
+//!   entry and unchanged until the controller leaves command mode;
+//! - step limits in command mode: every joint set-point element moves at most
+//!   `max_joint_step` and every added-torque element at most `max_added_torque_step` per reply;
+//! - NaN/Inf in the application's values never reach the wire: the element keeps its previous
+//!   value (set-point, torque) or a neutral one (0 torque, default gains, KRL value 0).
+//!
+//! Each correction is counted in [`LimitCounters`].
+
+mod config;
+mod sequence;
+mod stats;
+
+pub use config::{
+    DEFAULT_JOINT_DAMPING, DEFAULT_JOINT_STIFFNESS, DEFAULT_MAX_ADDED_TORQUE_STEP,
+    DEFAULT_MAX_JOINT_STEP, DEFAULT_MAX_JOINT_STIFFNESS, DesiredCommand, SessionConfig,
+};
+pub use sequence::SequenceCounters;
+pub use stats::{
+    LimitCounters, RejectionCounters, SessionStatistics, TIMING_WINDOW, TimingStatistics,
+    WindowFigures,
+};
+
+use std::net::SocketAddr;
+use std::time::Instant;
+
+use crate::handshake::{HandshakeRequest, HandshakeStatus, KrlStrategy, RequestKind};
+use crate::wire::{
+    CMD_LEN, Command, CommandFlags, InterfaceState, JOINTS, Measurement, Quality, WireError,
+};
+use sequence::{SequenceTracker, Verdict};
+use stats::Window;
+
+/// Why a received datagram was not accepted as a measurement.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum Rejection {
+    /// Length, header or float content is invalid.
+    #[error("invalid measurement datagram: {0}")]
+    Wire(#[from] WireError),
+    /// The datagram did not come from the configured controller.
+    #[error("datagram from unexpected source {0}")]
+    UnexpectedSource(SocketAddr),
+    /// `intf.state` holds a value outside −1…2.
+    #[error("unknown interface state {0}")]
+    UnknownState(u16),
+    /// `intf.quality` holds a value outside −1…3.
+    #[error("unknown quality {0}")]
+    UnknownQuality(u16),
+    /// Same sequence number as the newest accepted measurement.
+    #[error("duplicate measurement, sequence {seq}")]
+    Duplicate {
+        /// The repeated sequence number.
+        seq: u16,
+    },
+    /// Older than the newest accepted measurement.
+    #[error("reordered measurement, sequence {seq} after {newest}")]
+    Reordered {
+        /// The stale sequence number.
+        seq: u16,
+        /// The newest accepted sequence number.
+        newest: u16,
+    },
+}
+
+/// Why no reply could be produced.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum ReplyError {
+    /// No measurement is waiting for a reply (none accepted yet, or already answered).
+    #[error("no measurement is waiting for a reply")]
+    NothingToAnswer,
+    /// A value taken from the controller does not fit an f32 (counted in `encode_failures`).
+    #[error("reply could not be encoded: {0}")]
+    Encode(WireError),
+}
+
+/// What a reply contained, for the application's bookkeeping.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ReplyInfo {
+    /// Our `sendSeqCount` in the reply.
+    pub send_seq_count: u16,
+    /// The controller's counter we reflected.
+    pub refl_seq_count: u16,
+    /// True when the mirroring rule replaced the set-point (not commanding).
+    pub mirrored: bool,
+    /// Command flags sent.
+    pub cmd_flags: CommandFlags,
+    /// Where to send the reply: the source of the measurement answered.
+    pub destination: SocketAddr,
+}
+
+/// Either stage of [`Session::step`] failing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum StepError {
+    /// The datagram was rejected.
+    #[error(transparent)]
+    Rejected(#[from] Rejection),
+    /// No reply could be produced.
+    #[error(transparent)]
+    Reply(#[from] ReplyError),
+}
+
+/// One FRI session with one controller. Holds no socket and reads no clock.
+#[derive(Debug, Clone)]
+pub struct Session {
+    config: SessionConfig,
+    stats: SessionStatistics,
+    sequence: SequenceTracker,
+    arrival_period: Window,
+    arrival_jitter: Window,
+    response_time: Window,
+    /// Newest accepted measurement, its source and receive time.
+    last_good: Option<(Measurement, SocketAddr, Instant)>,
+    /// True while `last_good` has not been answered.
+    awaiting_reply: bool,
+    /// Our counter of the next reply.
+    next_send_seq: u16,
+    /// Our counter of the previous reply in this synchronisation epoch.
+    previous_send_seq: Option<u16>,
+    /// The reply last emitted.
+    last_reply: Command,
+    /// Whether `last_reply` holds a reply of the current epoch (step limits start from it).
+    have_reply: bool,
+    /// Flags frozen at command-mode entry, `None` outside command mode.
+    frozen_flags: Option<CommandFlags>,
+    /// Strategy whose flags are sent in monitor mode.
+    selected_strategy: KrlStrategy,
+    /// Handshake request written into every reply.
+    request: HandshakeRequest,
+}
+
+impl Session {
+    /// A new session; nothing received yet.
+    pub fn new(config: SessionConfig) -> Self {
+        Self {
+            selected_strategy: config.default_strategy,
+            config,
+            stats: SessionStatistics::default(),
+            sequence: SequenceTracker::default(),
+            arrival_period: Window::default(),
+            arrival_jitter: Window::default(),
+            response_time: Window::default(),
+            last_good: None,
+            awaiting_reply: false,
+            next_send_seq: 1,
+            previous_send_seq: None,
+            last_reply: Command::default(),
+            have_reply: false,
+            frozen_flags: None,
+            request: HandshakeRequest::NONE,
+        }
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &SessionConfig {
+        &self.config
+    }
+
+    /// Validates a received datagram and, when accepted, keeps it as the last good measurement.
+    /// Never panics; every rejection is counted by reason and leaves the last good state alone.
+    pub fn receive(
+        &mut self,
+        datagram: &[u8],
+        source: SocketAddr,
+        now: Instant,
+    ) -> Result<&Measurement, Rejection> {
+        self.stats.datagrams_received += 1;
+        match self.validate(datagram, source, now) {
+            Ok((msr, verdict)) => Ok(self.accept(msr, verdict, source, now)),
+            Err(rejection) => {
+                self.count_rejection(&rejection);
+                Err(rejection)
+            }
+        }
+    }
+
+    fn validate(
+        &self,
+        datagram: &[u8],
+        source: SocketAddr,
+        now: Instant,
+    ) -> Result<(Measurement, Verdict), Rejection> {
+        let ip_ok = self.config.controller_ip.is_none_or(|ip| ip == source.ip());
+        let port_ok = self
+            .config
+            .controller_port
+            .is_none_or(|p| p == source.port());
+        if !(ip_ok && port_ok) {
+            return Err(Rejection::UnexpectedSource(source));
+        }
+        let msr = Measurement::parse(datagram)?;
+        if let InterfaceState::Unknown(raw) = msr.interface.state {
+            return Err(Rejection::UnknownState(raw));
+        }
+        if let Quality::Unknown(raw) = msr.interface.quality {
+            return Err(Rejection::UnknownQuality(raw));
+        }
+        let seq = msr.header.send_seq_count;
+        let verdict = self.sequence.classify(
+            seq,
+            now,
+            self.config.sequence_window,
+            self.config.resync_after,
+        );
+        match verdict {
+            Verdict::Duplicate => Err(Rejection::Duplicate { seq }),
+            Verdict::Reordered => Err(Rejection::Reordered {
+                seq,
+                newest: self.sequence.newest().unwrap_or(seq),
+            }),
+            _ => Ok((msr, verdict)),
+        }
+    }
+
+    fn accept(
+        &mut self,
+        msr: Measurement,
+        verdict: Verdict,
+        source: SocketAddr,
+        now: Instant,
+    ) -> &Measurement {
+        debug_assert!(verdict.accepted());
+        let s = &mut self.stats;
+        s.measurements_accepted += 1;
+        match verdict {
+            Verdict::Gap(lost) => s.sequence.lost += u64::from(lost),
+            Verdict::Restart => {
+                s.sequence.restarted += 1;
+                // A new epoch: the controller knows nothing of our previous replies.
+                self.previous_send_seq = None;
+                self.have_reply = false;
+                self.frozen_flags = None;
+            }
+            Verdict::First | Verdict::InOrder | Verdict::Duplicate | Verdict::Reordered => {}
+        }
+        if let Some(prev) = self.previous_send_seq
+            && msr.header.refl_seq_count != prev
+        {
+            s.sequence.reflection_mismatches += 1;
+        }
+        if self.awaiting_reply {
+            s.sequence.superseded += 1;
+        }
+        if let (Some((_, _, last_at)), Verdict::InOrder | Verdict::Gap(_)) =
+            (&self.last_good, verdict)
+        {
+            let period = now.saturating_duration_since(*last_at).as_secs_f64();
+            self.arrival_period.push(period);
+            self.arrival_jitter
+                .push((period - msr.interface.desired_msr_sample_time).abs());
+        }
+        self.sequence.accept(msr.header.send_seq_count, now);
+        self.awaiting_reply = true;
+        let (stored, _, _) = self.last_good.insert((msr, source, now));
+        stored
+    }
+
+    fn count_rejection(&mut self, r: &Rejection) {
+        let c = &mut self.stats.rejections;
+        match r {
+            Rejection::Wire(WireError::Empty { .. }) => c.empty += 1,
+            Rejection::Wire(WireError::Truncated { .. }) => c.truncated += 1,
+            Rejection::Wire(WireError::Oversized { .. }) => c.oversized += 1,
+            Rejection::Wire(WireError::WrongPacketSize { .. }) => c.wrong_packet_size += 1,
+            Rejection::Wire(WireError::WrongDatagramId { .. }) => c.wrong_datagram_id += 1,
+            Rejection::Wire(WireError::NonFinite { .. }) => c.non_finite += 1,
+            Rejection::UnexpectedSource(_) => c.unexpected_source += 1,
+            Rejection::UnknownState(_) => c.unknown_state += 1,
+            Rejection::UnknownQuality(_) => c.unknown_quality += 1,
+            Rejection::Duplicate { .. } => {
+                c.duplicate += 1;
+                self.stats.sequence.duplicated += 1;
+            }
+            Rejection::Reordered { .. } => {
+                c.reordered += 1;
+                self.stats.sequence.reordered += 1;
+            }
+        }
+    }
+
+    /// Builds the reply to the newest accepted measurement from the application's wish, applies
+    /// the controller's rules and limits, and encodes it into `out`. `now` is the send time
+    /// (for the response-time figure). Each measurement is answered at most once.
+    pub fn respond(
+        &mut self,
+        desired: &DesiredCommand,
+        now: Instant,
+        out: &mut [u8; CMD_LEN],
+    ) -> Result<ReplyInfo, ReplyError> {
+        if !self.awaiting_reply {
+            return Err(ReplyError::NothingToAnswer);
+        }
+        let Some((msr, source, received_at)) = self.last_good else {
+            return Err(ReplyError::NothingToAnswer);
+        };
+        let mut cmd = self.build(&msr, desired);
+        cmd.header.send_seq_count = self.next_send_seq;
+        cmd.header.refl_seq_count = msr.header.send_seq_count;
+        if let Err(e) = cmd.emit(out) {
+            self.stats.limits.encode_failures += 1;
+            return Err(ReplyError::Encode(e));
+        }
+        self.awaiting_reply = false;
+        self.previous_send_seq = Some(self.next_send_seq);
+        self.next_send_seq = self.next_send_seq.wrapping_add(1);
+        self.last_reply = cmd;
+        self.have_reply = true;
+        self.stats.replies_sent += 1;
+        self.response_time
+            .push(now.saturating_duration_since(received_at).as_secs_f64());
+        Ok(ReplyInfo {
+            send_seq_count: cmd.header.send_seq_count,
+            refl_seq_count: cmd.header.refl_seq_count,
+            mirrored: !Self::commanding(&msr),
+            cmd_flags: cmd.cmd_flags,
+            destination: source,
+        })
+    }
+
+    /// [`Session::receive`] then [`Session::respond`] with the same time.
+    pub fn step(
+        &mut self,
+        datagram: &[u8],
+        source: SocketAddr,
+        now: Instant,
+        desired: &DesiredCommand,
+        out: &mut [u8; CMD_LEN],
+    ) -> Result<ReplyInfo, StepError> {
+        self.receive(datagram, source, now)?;
+        Ok(self.respond(desired, now, out)?)
+    }
+
+    /// True when the controller applies our commands: state CMD and a drive powered.
+    fn commanding(msr: &Measurement) -> bool {
+        msr.interface.state == InterfaceState::Command && msr.drives_powered()
+    }
+
+    /// The command for `msr`, with every rule applied (header counters filled by the caller).
+    fn build(&mut self, msr: &Measurement, desired: &DesiredCommand) -> Command {
+        let limits = &mut self.stats.limits;
+        let commanding = Self::commanding(msr);
+        let previous = self.have_reply.then_some(&self.last_reply);
+
+        // Command flags: selected strategy in monitor mode, frozen in command mode.
+        let wanted_flags = self.selected_strategy.command_flags();
+        let cmd_flags = if msr.interface.state == InterfaceState::Command {
+            let frozen = *self.frozen_flags.get_or_insert(match previous {
+                Some(p) => p.cmd_flags,
+                // Joined while already in command mode: keep what the controller runs.
+                None => msr.robot.control.command_flags(),
+            });
+            if frozen != wanted_flags {
+                limits.flag_changes_blocked += 1;
+            }
+            frozen
+        } else {
+            self.frozen_flags = None;
+            wanted_flags
+        };
+
+        let mirrored = msr.mirrored_joint_position();
+        let (jnt_pos, add_jnt_trq) = if commanding {
+            // Step limits start from the previous reply; at entry that is the mirrored set-point.
+            let base_pos = previous.map_or(mirrored, |p| p.jnt_pos);
+            let base_trq = previous.map_or([0.0; JOINTS], |p| p.add_jnt_trq);
+            let target = desired.joint_position.unwrap_or(base_pos);
+            let pos = limit_steps(
+                &base_pos,
+                &target,
+                self.config.max_joint_step,
+                &mut limits.joint_steps_clamped,
+                &mut limits.non_finite_desired,
+            );
+            let trq = limit_steps(
+                &base_trq,
+                &desired.added_torque,
+                self.config.max_added_torque_step,
+                &mut limits.added_torque_steps_clamped,
+                &mut limits.non_finite_desired,
+            );
+            (pos, trq)
+        } else {
+            let overridden = desired.joint_position.is_some_and(|q| q != mirrored)
+                || desired.added_torque.iter().any(|t| *t != 0.0);
+            if overridden {
+                limits.mirrored_overrides += 1;
+            }
+            (mirrored, [0.0; JOINTS])
+        };
+
+        let jnt_stiffness = clamp_gains(
+            &desired.joint_stiffness,
+            self.config.max_joint_stiffness,
+            DEFAULT_JOINT_STIFFNESS,
+            limits,
+        );
+        let jnt_damping = clamp_gains(&desired.joint_damping, 1.0, DEFAULT_JOINT_DAMPING, limits);
+
+        let mut krl = desired.krl;
+        for v in &mut krl.real {
+            if !(*v as f32).is_finite() {
+                *v = 0.0;
+                limits.non_finite_desired += 1;
+            }
+        }
+        krl.fill = 0;
+        self.request.write_to(&mut krl);
+
+        Command {
+            header: Default::default(),
+            krl,
+            cmd_flags,
+            jnt_pos,
+            // Cartesian fields are not commanded by this session; keep them valid and neutral.
+            cart_pos: msr.data.msr_cart_pos,
+            add_jnt_trq,
+            add_tcp_ft: [0.0; 6],
+            jnt_stiffness,
+            jnt_damping,
+            cart_stiffness: [1000.0, 1000.0, 1000.0, 100.0, 100.0, 100.0],
+            cart_damping: [0.7; 6],
+        }
+    }
+
+    /// Writes a new handshake request (new id) into every following reply. A start also
+    /// selects the strategy whose flags are sent in monitor mode. Returns the request sent.
+    pub fn request(&mut self, kind: RequestKind, strategy: KrlStrategy) -> HandshakeRequest {
+        let id = match self.request.id.wrapping_add(1) {
+            0 => 1,
+            id => id,
+        };
+        if kind == RequestKind::StartCommandMode {
+            self.selected_strategy = strategy;
+        }
+        self.request = HandshakeRequest { kind, strategy, id };
+        self.request
+    }
+
+    /// The handshake request currently written into replies.
+    pub fn current_request(&self) -> HandshakeRequest {
+        self.request
+    }
+
+    /// The KRL program's report in the last good measurement (not reported before the first).
+    pub fn handshake_status(&self) -> HandshakeStatus {
+        self.last_good
+            .as_ref()
+            .map_or(HandshakeStatus::NOT_REPORTED, |(m, _, _)| {
+                HandshakeStatus::read_from_measurement(m)
+            })
+    }
+
+    /// True once the KRL program acknowledged the current request.
+    pub fn request_acknowledged(&self) -> bool {
+        self.request.id != 0 && self.handshake_status().has_acknowledged(self.request.id)
+    }
+
+    /// The strategy whose flags are sent in monitor mode.
+    pub fn selected_strategy(&self) -> KrlStrategy {
+        self.selected_strategy
+    }
+
+    /// The newest accepted measurement.
+    pub fn last_measurement(&self) -> Option<&Measurement> {
+        self.last_good.as_ref().map(|(m, _, _)| m)
+    }
+
+    /// Source address and receive time of the newest accepted measurement.
+    pub fn last_source(&self) -> Option<(SocketAddr, Instant)> {
+        self.last_good.as_ref().map(|(_, s, t)| (*s, *t))
+    }
+
+    /// The reply last emitted (all zero before the first).
+    pub fn last_reply(&self) -> &Command {
+        &self.last_reply
+    }
+
+    /// The command flags frozen at command-mode entry, `None` outside command mode.
+    pub fn frozen_flags(&self) -> Option<CommandFlags> {
+        self.frozen_flags
+    }
+
+    /// All counters and timing figures.
+    pub fn statistics(&self) -> SessionStatistics {
+        let mut s = self.stats;
+        s.timing = TimingStatistics {
+            arrival_period: self.arrival_period.figures(),
+            arrival_jitter: self.arrival_jitter.figures(),
+            response_time: self.response_time.figures(),
+        };
+        s
+    }
+}
+
+/// Moves each element from `base` towards `target` by at most `max_step`; non-finite targets
+/// keep the base value. Counts clamped and non-finite elements.
+fn limit_steps(
+    base: &[f64; JOINTS],
+    target: &[f64; JOINTS],
+    max_step: f64,
+    clamped: &mut u64,
+    non_finite: &mut u64,
+) -> [f64; JOINTS] {
+    core::array::from_fn(|i| {
+        let t = target[i];
+        if !(t as f32).is_finite() {
+            *non_finite += 1;
+            return base[i];
+        }
+        let step = t - base[i];
+        if step.abs() > max_step {
+            *clamped += 1;
+            base[i] + max_step.copysign(step)
+        } else {
+            t
+        }
+    })
+}
+
+/// Clamps gains into [0, max]; non-finite elements take `neutral`. Counts corrections.
+fn clamp_gains(
+    gains: &[f64; JOINTS],
+    max: f64,
+    neutral: f64,
+    limits: &mut LimitCounters,
+) -> [f64; JOINTS] {
+    gains.map(|g| {
+        if !g.is_finite() {
+            limits.non_finite_desired += 1;
+            neutral
+        } else if !(0.0..=max).contains(&g) {
+            limits.gains_clamped += 1;
+            g.clamp(0.0, max)
+        } else {
+            g
+        }
+    })
+}

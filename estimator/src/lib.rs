@@ -10,12 +10,15 @@
 //! coefficient-set workflow (eqs. 21–28); [`filter`] zero-phase Butterworth filtering and
 //! numerical differentiation.
 
+pub mod basis;
 pub mod coefficients;
 pub mod error;
+pub mod estimate;
 pub mod expr;
 pub mod filter;
 pub mod lsq;
 pub mod samples;
+pub mod sim;
 
 pub use coefficients::{CoefficientEstimate, CoefficientSet};
 pub use error::EstimatorError;

@@ -79,40 +79,40 @@ pub fn validate<const N: usize>(
             ("drift", s.drift.as_ref()),
         ];
         for (name, v) in groups {
-            if let Some(v) = v {
-                if let Some(j) = v.iter().position(|x| !x.is_finite()) {
-                    return Err(EstimatorError::NotFinite {
-                        sample: k + 1,
-                        column: format!("{name}{}", j + 1),
-                    });
-                }
-            }
-        }
-        if let Some(qd) = &s.qd {
-            if let Some(j) = qd.iter().position(|v| v.abs() > check.max_velocity) {
-                return Err(EstimatorError::NotStatic {
+            if let Some(v) = v
+                && let Some(j) = v.iter().position(|x| !x.is_finite())
+            {
+                return Err(EstimatorError::NotFinite {
                     sample: k + 1,
-                    detail: format!(
-                        "joint {} moves at {:.4} rad/s (limit {} rad/s)",
-                        j + 1,
-                        qd[j],
-                        check.max_velocity
-                    ),
+                    column: format!("{name}{}", j + 1),
                 });
             }
         }
-        if let Some(dr) = &s.drift {
-            if let Some(j) = dr.iter().position(|v| v.abs() > check.max_drift) {
-                return Err(EstimatorError::NotStatic {
-                    sample: k + 1,
-                    detail: format!(
-                        "joint {} drifted {:.5} rad while sampling (limit {} rad)",
-                        j + 1,
-                        dr[j],
-                        check.max_drift
-                    ),
-                });
-            }
+        if let Some(qd) = &s.qd
+            && let Some(j) = qd.iter().position(|v| v.abs() > check.max_velocity)
+        {
+            return Err(EstimatorError::NotStatic {
+                sample: k + 1,
+                detail: format!(
+                    "joint {} moves at {:.4} rad/s (limit {} rad/s)",
+                    j + 1,
+                    qd[j],
+                    check.max_velocity
+                ),
+            });
+        }
+        if let Some(dr) = &s.drift
+            && let Some(j) = dr.iter().position(|v| v.abs() > check.max_drift)
+        {
+            return Err(EstimatorError::NotStatic {
+                sample: k + 1,
+                detail: format!(
+                    "joint {} drifted {:.5} rad while sampling (limit {} rad)",
+                    j + 1,
+                    dr[j],
+                    check.max_drift
+                ),
+            });
         }
     }
     Ok(())
@@ -126,10 +126,10 @@ fn find_group<const N: usize>(
 ) -> Result<Option<[usize; N]>, EstimatorError> {
     let mut found: Vec<(usize, usize)> = Vec::new(); // (joint index 1-based, column)
     for (col, name) in header.iter().enumerate() {
-        if let Some(rest) = name.trim().strip_prefix(prefix) {
-            if let Ok(j) = rest.parse::<usize>() {
-                found.push((j, col));
-            }
+        if let Some(rest) = name.trim().strip_prefix(prefix)
+            && let Ok(j) = rest.parse::<usize>()
+        {
+            found.push((j, col));
         }
     }
     if found.is_empty() && !required {

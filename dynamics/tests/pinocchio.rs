@@ -1,0 +1,147 @@
+//! Cross-check against Pinocchio 4.1 (an independent implementation): fixtures written by
+//! tools/gen_dynamics_fixtures.py at 50 random states within the LWR limits. Every quantity must
+//! agree to 1e-9 relative to its largest entry.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+use dynamics::{
+    Data, compute_generalized_gravity, coriolis_matrix, coriolis_transpose_times_velocity, crba,
+    flange_jacobian, flange_pose, forward_dynamics, joint_torque_regressor, lwr4,
+    nonlinear_effects, payload_gravity_regressor, payload_regressor, rnea,
+};
+use nalgebra::{DMatrix, SMatrix, SVector};
+use serde_json::Value;
+
+const TOLERANCE: f64 = 1e-9;
+
+fn fixture() -> Value {
+    let text = include_str!("fixtures/pinocchio-lwr4.json");
+    serde_json::from_str(text).unwrap()
+}
+
+fn vector<const N: usize>(v: &Value) -> SVector<f64, N> {
+    let items = v.as_array().unwrap();
+    assert_eq!(items.len(), N);
+    SVector::from_fn(|i, _| items[i].as_f64().unwrap())
+}
+
+fn matrix<const R: usize, const C: usize>(v: &Value) -> SMatrix<f64, R, C> {
+    let rows = v.as_array().unwrap();
+    assert_eq!(rows.len(), R);
+    SMatrix::from_fn(|i, j| {
+        let row = rows[i].as_array().unwrap();
+        assert_eq!(row.len(), C);
+        row[j].as_f64().unwrap()
+    })
+}
+
+fn check<const R: usize, const C: usize>(
+    what: &str,
+    state: usize,
+    got: &SMatrix<f64, R, C>,
+    want: &SMatrix<f64, R, C>,
+) -> f64 {
+    let scale = want.abs().max();
+    let err = (got - want).abs().max();
+    let relative = if scale > 0.0 { err / scale } else { err };
+    assert!(
+        relative <= TOLERANCE,
+        "state {state}: {what} differs by {err:e} (relative {relative:e})\n got {got}\nwant {want}"
+    );
+    relative
+}
+
+#[test]
+fn lwr4_matches_pinocchio_at_50_random_states() {
+    let fixture = fixture();
+    let states = fixture["states"].as_array().unwrap();
+    assert!(states.len() >= 50);
+    let model = lwr4();
+    let mut data = Data::new(&model);
+    let mut worst: f64 = 0.0;
+    for (k, s) in states.iter().enumerate() {
+        let q: SVector<f64, 7> = vector(&s["q"]);
+        let qd: SVector<f64, 7> = vector(&s["qd"]);
+        let qdd: SVector<f64, 7> = vector(&s["qdd"]);
+        assert!(model.limits().contains_position(&q));
+        let checks = [
+            check("M", k, &crba(&model, &mut data, &q), &matrix(&s["M"])),
+            check(
+                "g",
+                k,
+                &compute_generalized_gravity(&model, &mut data, &q),
+                &vector(&s["g"]),
+            ),
+            check(
+                "tau",
+                k,
+                &rnea(&model, &mut data, &q, &qd, &qdd),
+                &vector(&s["tau"]),
+            ),
+            check(
+                "nonlinear effects",
+                k,
+                &nonlinear_effects(&model, &mut data, &q, &qd),
+                &vector(&s["nonlinear_effects"]),
+            ),
+            check(
+                "C^T qd (O(n) route)",
+                k,
+                &coriolis_transpose_times_velocity(&model, &mut data, &q, &qd),
+                &vector(&s["coriolis_transpose_qd"]),
+            ),
+            check(
+                "C^T qd (Christoffel route)",
+                k,
+                &(coriolis_matrix(&model, &mut data, &q, &qd).transpose() * qd),
+                &vector(&s["coriolis_transpose_qd"]),
+            ),
+            check(
+                "payload regressor",
+                k,
+                &payload_regressor(&model, &mut data, &q, &qd, &qdd),
+                &matrix(&s["payload_regressor"]),
+            ),
+            check(
+                "payload gravity regressor",
+                k,
+                &payload_gravity_regressor(&model, &mut data, &q),
+                &matrix(&s["payload_gravity_regressor"]),
+            ),
+            check(
+                "flange pose",
+                k,
+                &flange_pose(&model, &mut data, &q).to_homogeneous(),
+                &matrix(&s["flange_pose"]),
+            ),
+            check(
+                "flange Jacobian",
+                k,
+                &flange_jacobian(&model, &mut data, &q),
+                &matrix(&s["flange_jacobian"]),
+            ),
+        ];
+        worst = checks.iter().fold(worst, |a, b| a.max(*b));
+
+        // Forward dynamics: Pinocchio's ABA applied to τ = RNEA(q, q̇, q̈).
+        let tau: SVector<f64, 7> = vector(&s["tau"]);
+        let qdd_fd = forward_dynamics(&model, &mut data, &q, &qd, &tau).unwrap();
+        check(
+            "forward dynamics",
+            k,
+            &qdd_fd,
+            &vector(&s["forward_dynamics_qdd"]),
+        );
+
+        // Full 7×70 regressor, block by block.
+        let want: SMatrix<f64, 7, 70> = matrix(&s["regressor"]);
+        let blocks = joint_torque_regressor(&model, &mut data, &q, &qd, &qdd);
+        let mut got = DMatrix::<f64>::zeros(7, 70);
+        for (b, block) in blocks.iter().enumerate() {
+            got.view_mut((0, 10 * b), (7, 10)).copy_from(block);
+        }
+        let got = SMatrix::<f64, 7, 70>::from_iterator(got.iter().copied());
+        worst = worst.max(check("regressor", k, &got, &want));
+    }
+    eprintln!("worst relative difference to Pinocchio: {worst:e}");
+    assert!(worst <= TOLERANCE);
+}

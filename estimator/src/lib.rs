@@ -12,6 +12,7 @@
 
 pub mod basis;
 pub mod coefficients;
+pub mod correction;
 pub mod error;
 pub mod estimate;
 pub mod expr;

@@ -38,7 +38,7 @@ pub fn check_tare_poses<const N: usize>(
     }
     for (k, (l, t)) in loaded.iter().zip(tare).enumerate() {
         let d = l.q - t.q;
-        if let Some(j) = d.iter().position(|v| !(v.abs() <= tolerance)) {
+        if let Some(j) = d.iter().position(|v| v.is_nan() || v.abs() > tolerance) {
             return Err(EstimatorError::TarePoseMismatch {
                 detail: format!(
                     "sample {}: joint {} differs by {:.5} rad ({:.3}°), tolerance {} rad",

@@ -426,8 +426,8 @@ pub struct ControlSpec {
 impl Default for ControlSpec {
     fn default() -> Self {
         Self {
-            position_bandwidth_rad_s: 40.0,
-            position_integral_per_s: 10.0,
+            position_bandwidth_rad_s: 60.0,
+            position_integral_per_s: 20.0,
             default_stiffness_nm_per_rad: [1000.0; JOINTS],
             default_damping: [0.7; JOINTS],
         }

@@ -12,9 +12,12 @@ pub mod error;
 pub mod faults;
 pub mod friction;
 pub mod krl;
+pub mod models;
 pub mod motion;
 pub mod sensors;
+pub mod simulation;
 pub mod stats;
 
 pub use config::SimulationConfig;
 pub use error::SimError;
+pub use simulation::{ContactState, ReceiveCounters, Simulation};

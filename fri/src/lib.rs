@@ -3,6 +3,8 @@
 //!
 //! Spec: `shared/docs/fri-1x-protocol.md`; our own summary: `docs/fri.md`.
 
+pub mod endpoint;
 pub mod handshake;
 pub mod session;
+pub mod state;
 pub mod wire;

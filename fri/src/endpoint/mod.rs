@@ -1,0 +1,341 @@
+//! Real-time UDP endpoint: a dedicated OS thread that answers every measurement at once.
+//!
+//! The thread blocks in `recv_from` with a timeout, drains any datagrams queued behind the first
+//! one (all go through the session for counting; only the newest is answered), runs the
+//! application's [`CycleHook`] synchronously (libfranka style), encodes the limited reply and
+//! sends it to the measurement's source. Non-real-time code talks to it through a lock-free
+//! latest-state snapshot ([`Endpoint::latest`]) and a bounded command queue
+//! ([`Endpoint::try_send`]); the thread never takes a lock shared with other threads and never
+//! allocates in the loop.
+
+mod realtime;
+mod socket;
+mod triple_buffer;
+
+pub use realtime::{RealtimeConfig, RealtimeReport};
+pub use socket::SocketConfig;
+pub use triple_buffer::{Reader, Writer, triple_buffer};
+
+use std::net::SocketAddr;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, SyncSender, TrySendError, sync_channel};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::Instant;
+
+use crate::handshake::{HandshakeStatus, KrlStrategy, RequestKind};
+use crate::session::{DesiredCommand, Session, SessionConfig};
+use crate::state::RobotState;
+use crate::wire::CMD_LEN;
+
+/// Receive buffer size of the loop: larger than a measurement so oversized datagrams are seen
+/// as such instead of being truncated by the kernel, bytes.
+const RECEIVE_BUFFER: usize = 2048;
+
+/// Everything the endpoint needs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EndpointConfig {
+    /// Socket settings (bind address, timeout, buffer, DSCP).
+    pub socket: SocketConfig,
+    /// Real-time settings of the thread.
+    pub realtime: RealtimeConfig,
+    /// Session rules and limits.
+    pub session: SessionConfig,
+    /// Capacity of the command queue, messages.
+    pub queue_capacity: usize,
+}
+
+impl Default for EndpointConfig {
+    fn default() -> Self {
+        Self {
+            socket: SocketConfig::default(),
+            realtime: RealtimeConfig::default(),
+            session: SessionConfig::default(),
+            queue_capacity: 64,
+        }
+    }
+}
+
+/// A message from non-real-time code to the loop.
+// Not boxed on purpose: messages live in the channel's preallocated slots, and a Box would make
+// the real-time thread free heap memory.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum EndpointMessage {
+    /// Replace the desired command used from the next cycle on (the hook may still change it).
+    SetDesired(DesiredCommand),
+    /// Send a new handshake request (new id).
+    Request(RequestKind, KrlStrategy),
+}
+
+/// What the hook may change each cycle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CycleOutput {
+    /// The desired command; it persists from cycle to cycle.
+    pub desired: DesiredCommand,
+    /// A new handshake request to send from this cycle on.
+    pub request: Option<(RequestKind, KrlStrategy)>,
+}
+
+/// Per-cycle callback run inside the real-time loop after a measurement was accepted and
+/// before the reply is built. It must not block or allocate.
+pub trait CycleHook: Send + 'static {
+    /// Looks at the state and adjusts the output.
+    fn on_cycle(&mut self, state: &RobotState, output: &mut CycleOutput);
+}
+
+impl<F> CycleHook for F
+where
+    F: FnMut(&RobotState, &mut CycleOutput) + Send + 'static,
+{
+    fn on_cycle(&mut self, state: &RobotState, output: &mut CycleOutput) {
+        self(state, output)
+    }
+}
+
+/// A hook that changes nothing: the endpoint answers in monitor mode (mirroring) or holds.
+pub fn monitor_hook() -> impl CycleHook {
+    |_: &RobotState, _: &mut CycleOutput| {}
+}
+
+/// Errors of the endpoint.
+#[derive(Debug, thiserror::Error)]
+pub enum EndpointError {
+    /// Creating, configuring or binding the socket failed.
+    #[error("cannot set up the FRI socket on {addr}: {source}")]
+    Socket {
+        /// Address we tried to bind.
+        addr: SocketAddr,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// Spawning the thread failed.
+    #[error("cannot spawn the FRI thread: {0}")]
+    Spawn(std::io::Error),
+    /// The command queue is full.
+    #[error("command queue full")]
+    QueueFull,
+    /// The loop has stopped.
+    #[error("endpoint stopped")]
+    Stopped,
+    /// The loop panicked (a bug, or a panicking hook).
+    #[error("the FRI thread panicked")]
+    Panicked,
+}
+
+/// Handle of a running endpoint. Dropping it stops the thread.
+pub struct Endpoint {
+    thread: Option<JoinHandle<()>>,
+    stop: Arc<AtomicBool>,
+    reader: Mutex<Reader<RobotState>>,
+    commands: SyncSender<EndpointMessage>,
+    local_addr: SocketAddr,
+}
+
+impl Endpoint {
+    /// Binds the socket and starts the loop with `hook`.
+    pub fn spawn(config: EndpointConfig, hook: impl CycleHook) -> Result<Self, EndpointError> {
+        let sock = socket::open(&config.socket)?;
+        let local_addr = sock
+            .local_addr()
+            .ok()
+            .and_then(|a| a.as_socket())
+            .unwrap_or(config.socket.bind);
+        let (writer, reader) = triple_buffer(RobotState::default());
+        let (commands, queue) = sync_channel(config.queue_capacity.max(1));
+        let stop = Arc::new(AtomicBool::new(false));
+        let mut rt = Loop {
+            socket: sock,
+            session: Session::new(config.session),
+            writer,
+            queue,
+            stop: Arc::clone(&stop),
+            hook,
+            state: RobotState::default(),
+            output: CycleOutput {
+                desired: DesiredCommand::default(),
+                request: None,
+            },
+        };
+        let realtime = config.realtime;
+        let thread = std::thread::Builder::new()
+            .name("fri-rt".into())
+            .spawn(move || {
+                realtime::apply(&realtime);
+                rt.run();
+            })
+            .map_err(EndpointError::Spawn)?;
+        tracing::info!(%local_addr, "FRI endpoint listening");
+        Ok(Self {
+            thread: Some(thread),
+            stop,
+            reader: Mutex::new(reader),
+            commands,
+            local_addr,
+        })
+    }
+
+    /// The bound local address (useful with port 0).
+    pub fn local_addr(&self) -> SocketAddr {
+        self.local_addr
+    }
+
+    /// A copy of the newest state. The mutex only serialises non-real-time readers among
+    /// themselves; the real-time thread never touches it.
+    pub fn latest(&self) -> RobotState {
+        match self.reader.lock() {
+            Ok(mut r) => *r.latest(),
+            Err(poisoned) => *poisoned.into_inner().latest(),
+        }
+    }
+
+    /// Queues a message for the loop without blocking.
+    pub fn try_send(&self, message: EndpointMessage) -> Result<(), EndpointError> {
+        self.commands.try_send(message).map_err(|e| match e {
+            TrySendError::Full(_) => EndpointError::QueueFull,
+            TrySendError::Disconnected(_) => EndpointError::Stopped,
+        })
+    }
+
+    /// A sender for other threads (bounded; use `try_send` on it).
+    pub fn command_sender(&self) -> SyncSender<EndpointMessage> {
+        self.commands.clone()
+    }
+
+    /// True while the loop runs.
+    pub fn is_running(&self) -> bool {
+        self.thread.as_ref().is_some_and(|t| !t.is_finished())
+    }
+
+    /// Stops the loop (within one receive timeout) and waits for the thread.
+    pub fn shutdown(mut self) -> Result<(), EndpointError> {
+        self.stop_and_join()
+    }
+
+    fn stop_and_join(&mut self) -> Result<(), EndpointError> {
+        self.stop.store(true, Ordering::Release);
+        match self.thread.take() {
+            Some(t) => t.join().map_err(|_| EndpointError::Panicked),
+            None => Ok(()),
+        }
+    }
+}
+
+impl Drop for Endpoint {
+    fn drop(&mut self) {
+        let _ = self.stop_and_join();
+    }
+}
+
+/// State owned by the real-time thread.
+struct Loop<H> {
+    socket: socket2::Socket,
+    session: Session,
+    writer: Writer<RobotState>,
+    queue: Receiver<EndpointMessage>,
+    stop: Arc<AtomicBool>,
+    hook: H,
+    state: RobotState,
+    output: CycleOutput,
+}
+
+impl<H: CycleHook> Loop<H> {
+    fn run(&mut self) {
+        let mut rx = [0u8; RECEIVE_BUFFER];
+        let mut tx = [0u8; CMD_LEN];
+        while !self.stop.load(Ordering::Acquire) {
+            let (len, source) = match socket::receive(&self.socket, &mut rx, true) {
+                Ok(Some(got)) => got,
+                Ok(None) => {
+                    self.state.endpoint.receive_timeouts += 1;
+                    self.writer.publish(&self.state);
+                    continue;
+                }
+                Err(e) => {
+                    self.state.endpoint.receive_errors += 1;
+                    tracing::debug!(error = %e, "FRI receive failed");
+                    continue;
+                }
+            };
+            let now = Instant::now();
+            let mut accepted = self.feed(&rx[..len], source, now);
+            // Drain datagrams queued behind this one; the newest accepted is answered.
+            loop {
+                match socket::receive(&self.socket, &mut rx, false) {
+                    Ok(Some((len, source))) => {
+                        self.state.endpoint.stale_drained += 1;
+                        accepted |= self.feed(&rx[..len], source, Instant::now());
+                    }
+                    Ok(None) => break,
+                    Err(e) => {
+                        self.state.endpoint.receive_errors += 1;
+                        tracing::debug!(error = %e, "FRI receive failed while draining");
+                        break;
+                    }
+                }
+            }
+            if accepted {
+                self.answer(&mut tx);
+            } else {
+                self.refresh_state();
+            }
+            self.writer.publish(&self.state);
+        }
+        tracing::info!("FRI endpoint stopped");
+    }
+
+    /// Passes one datagram to the session; true when accepted.
+    fn feed(&mut self, datagram: &[u8], source: SocketAddr, now: Instant) -> bool {
+        match self.session.receive(datagram, source, now) {
+            Ok(_) => true,
+            Err(rejection) => {
+                tracing::debug!(%rejection, %source, "FRI datagram rejected");
+                false
+            }
+        }
+    }
+
+    /// Runs the queue and the hook, builds, encodes and sends the reply.
+    fn answer(&mut self, tx: &mut [u8; CMD_LEN]) {
+        // Empty or disconnected both end the drain; a dropped sender is not an error here.
+        while let Ok(message) = self.queue.try_recv() {
+            self.state.endpoint.queue_messages += 1;
+            match message {
+                EndpointMessage::SetDesired(d) => self.output.desired = d,
+                EndpointMessage::Request(kind, strategy) => {
+                    self.session.request(kind, strategy);
+                }
+            }
+        }
+        self.refresh_state();
+        self.output.request = None;
+        self.hook.on_cycle(&self.state, &mut self.output);
+        if let Some((kind, strategy)) = self.output.request.take() {
+            self.session.request(kind, strategy);
+        }
+        let now = Instant::now();
+        match self.session.respond(&self.output.desired, now, tx) {
+            Ok(info) => {
+                let sent = socket::send(&self.socket, tx, info.destination);
+                if !matches!(sent, Ok(n) if n == CMD_LEN) {
+                    self.state.endpoint.send_errors += 1;
+                }
+            }
+            Err(e) => tracing::debug!(error = %e, "no FRI reply"),
+        }
+        self.state.cycle += 1;
+        self.refresh_state();
+    }
+
+    fn refresh_state(&mut self) {
+        let s = &mut self.state;
+        if let Some(m) = self.session.last_measurement() {
+            s.valid = true;
+            s.measurement = *m;
+            s.handshake = HandshakeStatus::read_from_measurement(m);
+        }
+        s.last_reply = *self.session.last_reply();
+        s.request = self.session.current_request();
+        s.statistics = self.session.statistics();
+    }
+}

@@ -1,0 +1,260 @@
+//! The real-time endpoint against a UDP test peer on 127.0.0.1. Asserts behaviour only.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+
+use std::net::{SocketAddr, UdpSocket};
+use std::time::{Duration, Instant};
+
+use common::{measurement_datagram, mirrored_set_point};
+use fri::endpoint::{
+    CycleOutput, Endpoint, EndpointConfig, EndpointMessage, RealtimeConfig, SocketConfig,
+    monitor_hook,
+};
+use fri::handshake::{KrlStrategy, RequestKind};
+use fri::state::RobotState;
+use fri::wire::{CommandFlags, CommandPacket, InterfaceState};
+
+fn config() -> EndpointConfig {
+    EndpointConfig {
+        socket: SocketConfig {
+            bind: "127.0.0.1:0".parse().unwrap(),
+            receive_timeout: Duration::from_millis(20),
+            // Room for the bursts of the tests (the production default is deliberately small).
+            receive_buffer: 256 * 1024,
+            ..SocketConfig::default()
+        },
+        realtime: RealtimeConfig::NONE,
+        ..EndpointConfig::default()
+    }
+}
+
+struct Peer {
+    socket: UdpSocket,
+    endpoint: SocketAddr,
+}
+
+impl Peer {
+    fn new(endpoint: SocketAddr) -> Self {
+        let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
+        socket
+            .set_read_timeout(Some(Duration::from_secs(2)))
+            .unwrap();
+        Self { socket, endpoint }
+    }
+
+    fn send(&self, datagram: &[u8]) {
+        self.socket.send_to(datagram, self.endpoint).unwrap();
+    }
+
+    fn reply(&self) -> CommandPacket<Vec<u8>> {
+        let mut buf = [0u8; 2048];
+        let (n, from) = self.socket.recv_from(&mut buf).expect("reply within 2 s");
+        assert_eq!(from, self.endpoint);
+        let p = CommandPacket::new_checked(buf[..n].to_vec()).expect("reply has 376 bytes");
+        p.check().expect("valid reply");
+        p
+    }
+
+    fn expect_silence(&self, for_: Duration) {
+        self.socket.set_read_timeout(Some(for_)).unwrap();
+        let mut buf = [0u8; 2048];
+        assert!(self.socket.recv_from(&mut buf).is_err(), "unexpected reply");
+        self.socket
+            .set_read_timeout(Some(Duration::from_secs(2)))
+            .unwrap();
+    }
+}
+
+/// Polls the snapshot until `done` holds (2 s at most).
+fn wait_for(endpoint: &Endpoint, done: impl Fn(&RobotState) -> bool) -> RobotState {
+    let deadline = Instant::now() + Duration::from_secs(2);
+    loop {
+        let s = endpoint.latest();
+        if done(&s) || Instant::now() > deadline {
+            return s;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+}
+
+#[test]
+fn answers_every_measurement_at_one_kilohertz_with_counters_and_mirroring() {
+    let endpoint = Endpoint::spawn(config(), monitor_hook()).unwrap();
+    let peer = Peer::new(endpoint.local_addr());
+    let mut our_previous: Option<u16> = None;
+    let start = Instant::now();
+    let cycles = 2000u32;
+    for k in 0..cycles {
+        // Pace at 1 kHz (behaviour is asserted, not timing).
+        let due = start + Duration::from_millis(u64::from(k));
+        if let Some(wait) = due.checked_duration_since(Instant::now()) {
+            std::thread::sleep(wait);
+        }
+        let seq = 0xFF00u16.wrapping_add(k as u16); // crosses the 0xFFFF → 0 wrap
+        peer.send(&measurement_datagram(seq, our_previous.unwrap_or(0)));
+        let r = peer.reply();
+        assert_eq!(r.refl_seq_count(), seq, "cycle {k}");
+        if let Some(prev) = our_previous {
+            assert_eq!(r.send_seq_count(), prev.wrapping_add(1), "cycle {k}");
+        }
+        our_previous = Some(r.send_seq_count());
+        assert_eq!(r.jnt_pos(), mirrored_set_point(), "cycle {k}");
+        assert_eq!(r.add_jnt_trq(), [0.0; 7]);
+        assert_eq!(r.cmd_flags(), CommandFlags::POSITION);
+    }
+    let s = wait_for(&endpoint, |s| {
+        s.statistics.replies_sent == u64::from(cycles)
+    });
+    assert!(s.valid);
+    assert_eq!(s.statistics.measurements_accepted, u64::from(cycles));
+    assert_eq!(s.statistics.replies_sent, u64::from(cycles));
+    assert_eq!(s.statistics.sequence.lost, 0);
+    assert_eq!(s.statistics.sequence.reflection_mismatches, 0);
+    assert_eq!(s.statistics.rejections.total(), 0);
+    assert_eq!(
+        s.krc_sequence_counter(),
+        0xFF00u16.wrapping_add(cycles as u16 - 1)
+    );
+    assert_eq!(s.measured_joint_positions()[1], 0.25);
+    assert_eq!(s.fri_state(), InterfaceState::Monitor);
+    assert_eq!(
+        s.statistics.timing.arrival_period.samples,
+        u64::from(cycles) - 1
+    );
+    endpoint.shutdown().unwrap();
+}
+
+#[test]
+fn bad_datagrams_are_counted_unanswered_and_the_last_good_state_stays() {
+    let endpoint = Endpoint::spawn(config(), monitor_hook()).unwrap();
+    let peer = Peer::new(endpoint.local_addr());
+    peer.send(&measurement_datagram(1, 0));
+    peer.reply();
+    let good = wait_for(&endpoint, |s| s.statistics.replies_sent == 1);
+
+    let d = measurement_datagram(2, 1);
+    let mut wrong_size = d;
+    wrong_size[4..6].copy_from_slice(&917u16.to_le_bytes());
+    let mut wrong_id = d;
+    wrong_id[6..8].copy_from_slice(&0x1005u16.to_le_bytes());
+    let mut inf = d;
+    inf[888..892].copy_from_slice(&f32::INFINITY.to_le_bytes());
+    let mut long = d.to_vec();
+    long.extend_from_slice(&[0; 100]);
+    let huge = vec![0u8; 4000];
+    let bad: Vec<&[u8]> = vec![
+        &[],
+        &d[..100],
+        &d[..915],
+        &long,
+        &huge,
+        &wrong_size,
+        &wrong_id,
+        &inf,
+    ];
+    for datagram in &bad {
+        peer.send(datagram);
+    }
+    peer.send(&measurement_datagram(1, 0)); // duplicate of the first
+    peer.expect_silence(Duration::from_millis(100));
+    let s = wait_for(&endpoint, |s| s.statistics.rejections.total() == 9);
+    let r = s.statistics.rejections;
+    assert_eq!((r.empty, r.truncated, r.oversized), (1, 2, 2));
+    assert_eq!(
+        (r.wrong_packet_size, r.wrong_datagram_id, r.non_finite),
+        (1, 1, 1)
+    );
+    assert_eq!(r.duplicate, 1);
+    assert_eq!(s.measurement, good.measurement);
+    assert_eq!(s.statistics.replies_sent, 1);
+    // And the endpoint still answers.
+    peer.send(&d);
+    assert_eq!(peer.reply().refl_seq_count(), 2);
+    endpoint.shutdown().unwrap();
+}
+
+#[test]
+fn hook_and_queue_reach_the_reply() {
+    let hook = |state: &RobotState, out: &mut CycleOutput| {
+        // Ask for command mode once, on the controller's counter 3.
+        if state.krc_sequence_counter() == 3 {
+            out.request = Some((RequestKind::StartCommandMode, KrlStrategy::JointImpedance));
+        }
+        out.desired.krl.real[0] = f64::from(state.krc_sequence_counter());
+    };
+    let endpoint = Endpoint::spawn(config(), hook).unwrap();
+    let peer = Peer::new(endpoint.local_addr());
+    for seq in 1..=3u16 {
+        peer.send(&measurement_datagram(seq, 0));
+        let r = peer.reply();
+        assert_eq!(r.krl_real()[0], f32::from(seq));
+        if seq == 3 {
+            assert_eq!(&r.krl_int()[13..16], &[1, 30, 10]);
+            assert_eq!(r.cmd_flags(), CommandFlags::JOINT_IMPEDANCE);
+        } else {
+            assert_eq!(&r.krl_int()[13..16], &[0, 0, 0]);
+        }
+    }
+    endpoint
+        .try_send(EndpointMessage::Request(
+            RequestKind::StopCommandMode,
+            KrlStrategy::None,
+        ))
+        .unwrap();
+    peer.send(&measurement_datagram(4, 0));
+    assert_eq!(&peer.reply().krl_int()[13..16], &[2, 0, 20]);
+    let s = wait_for(&endpoint, |s| s.endpoint.queue_messages == 1);
+    assert_eq!(s.request.id, 2);
+    endpoint.shutdown().unwrap();
+}
+
+#[test]
+fn queued_stale_datagrams_are_drained_and_only_the_newest_is_answered() {
+    // The hook stalls on the first cycle so that three more measurements queue up.
+    let hook = |state: &RobotState, _: &mut CycleOutput| {
+        if state.krc_sequence_counter() == 1 {
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    };
+    let endpoint = Endpoint::spawn(config(), hook).unwrap();
+    let peer = Peer::new(endpoint.local_addr());
+    peer.send(&measurement_datagram(1, 0));
+    std::thread::sleep(Duration::from_millis(20));
+    for seq in 2..=4 {
+        peer.send(&measurement_datagram(seq, 0));
+    }
+    assert_eq!(peer.reply().refl_seq_count(), 1);
+    assert_eq!(peer.reply().refl_seq_count(), 4);
+    peer.expect_silence(Duration::from_millis(50));
+    let s = wait_for(&endpoint, |s| s.statistics.replies_sent == 2);
+    assert_eq!(s.endpoint.stale_drained, 2);
+    assert_eq!(s.statistics.sequence.superseded, 2);
+    assert_eq!(s.statistics.measurements_accepted, 4);
+    endpoint.shutdown().unwrap();
+}
+
+#[test]
+fn shutdown_is_prompt_and_drop_stops_the_thread() {
+    let endpoint = Endpoint::spawn(config(), monitor_hook()).unwrap();
+    assert!(endpoint.is_running());
+    let t = Instant::now();
+    endpoint.shutdown().unwrap();
+    assert!(t.elapsed() < Duration::from_secs(2));
+    let endpoint = Endpoint::spawn(config(), monitor_hook()).unwrap();
+    let addr = endpoint.local_addr();
+    drop(endpoint);
+    // The port is free again.
+    UdpSocket::bind(addr).unwrap();
+}
+
+#[test]
+fn binding_a_non_local_address_fails_with_a_typed_error() {
+    let mut c = config();
+    c.socket.bind = "192.0.2.1:49938".parse().unwrap(); // TEST-NET-1, never local
+    let err = Endpoint::spawn(c, monitor_hook()).err().unwrap();
+    assert!(
+        matches!(err, fri::endpoint::EndpointError::Socket { .. }),
+        "{err}"
+    );
+}

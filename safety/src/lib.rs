@@ -1,8 +1,15 @@
 //! Sensorless collision detection for the KUKA LWR 4+ with an estimated payload
 //! (Gaz & De Luca, IROS 2017, Sec. VI-B, eq. 48).
 //!
-//! This increment holds the model-independent parts: residual recursion (exact ZOH / Euler),
-//! velocity filter, friction model, faults, thresholds/hysteresis/debounce, reaction requests.
+//! - [`observer::MomentumObserver`]: the generalised-momentum residual
+//!   r = K_I(M q̇ − p(0) − ∫(τ_J + Cᵀq̇ − g_L + r)ds) with payload compensation, exact-ZOH or Euler
+//!   discretisation, velocity from positions, fault monitoring; allocation-free `step`.
+//! - [`detector::CollisionDetector`]: per-joint thresholds (6 Nm default), velocity scheduling,
+//!   hysteresis, debounce, collision events with isolation.
+//! - [`isolation`]: isolated link and damped least-squares contact wrench.
+//! - [`reaction::ReactionSupervisor`]: stop / pause-then-resume / wait-for-operator requests.
+//! - [`monitor::CollisionMonitor`]: all of the above in one per-cycle call.
+//!
 //! Units: SI (rad, rad/s, Nm, N, kg, m, s). Joints and links are 0-based in code.
 
 pub mod config;
@@ -11,5 +18,23 @@ pub mod discretisation;
 pub mod error;
 pub mod fault;
 pub mod friction;
+pub mod isolation;
+pub mod monitor;
+pub mod observer;
+pub mod payload;
 pub mod reaction;
 pub mod velocity;
+
+pub use config::{DEFAULT_GAIN, GravitySource, ObserverConfig};
+pub use detector::{
+    CollisionDetector, CollisionEvent, DEFAULT_THRESHOLD_NM, Detection, DetectorConfig, JointSet,
+};
+pub use discretisation::{Discretisation, ResidualIntegrator};
+pub use error::ConfigError;
+pub use fault::{Fault, FaultLog, Signal};
+pub use friction::JointFriction;
+pub use monitor::{CollisionMonitor, MonitorConfig, MonitorOutput};
+pub use observer::{MomentumObserver, ObserverInput, ObserverOutput, ObserverStatus};
+pub use payload::PayloadCompensation;
+pub use reaction::{ReactionPolicy, ReactionRequest, ReactionState, ReactionSupervisor, StopCause};
+pub use velocity::{VelocityEstimator, VelocityFilter};

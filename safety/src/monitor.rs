@@ -1,0 +1,161 @@
+//! The complete per-cycle pipeline: observer → detector → isolation/identification → reaction.
+
+use dynamics::Data;
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use crate::config::ObserverConfig;
+use crate::detector::{CollisionDetector, Detection, DetectorConfig};
+use crate::error::ConfigError;
+use crate::fault::Fault;
+use crate::isolation::estimate_contact_wrench;
+use crate::observer::{MomentumObserver, ObserverInput, ObserverOutput, ObserverStatus};
+use crate::payload::PayloadCompensation;
+use crate::reaction::{ReactionPolicy, ReactionRequest, ReactionState, ReactionSupervisor};
+use dynamics::Model;
+
+/// Default damping λ of the contact-wrench least-squares inverse (J entries in m and 1).
+pub const DEFAULT_WRENCH_DAMPING: f64 = 0.01;
+
+/// Configuration of the whole collision monitor.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MonitorConfig<const N: usize> {
+    /// Observer settings.
+    pub observer: ObserverConfig<N>,
+    /// Detector settings.
+    pub detector: DetectorConfig<N>,
+    /// Reaction to a collision (default: pause 2 s, then resume).
+    pub reaction: ReactionPolicy,
+    /// Reaction to an observer fault (default: stop).
+    pub fault_reaction: ReactionPolicy,
+    /// Assumed contact point for last-link contacts [m], in the last DH frame; `None` = the
+    /// flange origin of the model.
+    pub contact_point: Option<Vector3<f64>>,
+    /// Damping λ of the contact-wrench estimate (0 = plain pseudo-inverse).
+    pub wrench_damping: f64,
+}
+
+impl<const N: usize> MonitorConfig<N> {
+    /// Defaults around an observer with period `sample_period_s` [s] and gain `gain` [1/s].
+    pub fn new(sample_period_s: f64, gain: f64) -> Self {
+        Self {
+            observer: ObserverConfig::new(sample_period_s, gain),
+            detector: DetectorConfig::default(),
+            reaction: ReactionPolicy::default(),
+            fault_reaction: ReactionPolicy::Stop,
+            contact_point: None,
+            wrench_damping: DEFAULT_WRENCH_DAMPING,
+        }
+    }
+}
+
+/// Result of one monitor cycle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MonitorOutput<const N: usize> {
+    /// Observer result (residual, velocity, status).
+    pub observer: ObserverOutput<N>,
+    /// Detector result; `None` when the residual was not updated this cycle (state held).
+    pub detection: Option<Detection<N>>,
+    /// Request for the service, when the reaction state changed this cycle.
+    pub reaction: Option<ReactionRequest<N>>,
+    /// Reaction state after this cycle.
+    pub reaction_state: ReactionState,
+}
+
+/// Observer + detector + isolation + reaction for N joints; `step` is allocation-free.
+#[derive(Debug, Clone)]
+pub struct CollisionMonitor<const N: usize> {
+    observer: MomentumObserver<N>,
+    detector: CollisionDetector<N>,
+    supervisor: ReactionSupervisor,
+    wrench_data: Data<N>,
+    contact_point: Vector3<f64>,
+    wrench_damping: f64,
+}
+
+impl<const N: usize> CollisionMonitor<N> {
+    /// Monitor for the unloaded robot `model`.
+    pub fn new(model: Model<N>, config: MonitorConfig<N>) -> Result<Self, ConfigError> {
+        if !(config.wrench_damping.is_finite() && config.wrench_damping >= 0.0) {
+            return Err(ConfigError::Damping(config.wrench_damping));
+        }
+        let contact_point = config
+            .contact_point
+            .unwrap_or_else(|| model.flange().translation.vector);
+        let wrench_data = Data::new(&model);
+        Ok(Self {
+            observer: MomentumObserver::new(model, config.observer)?,
+            detector: CollisionDetector::new(config.detector)?,
+            supervisor: ReactionSupervisor::new(config.reaction, config.fault_reaction)?,
+            wrench_data,
+            contact_point,
+            wrench_damping: config.wrench_damping,
+        })
+    }
+
+    /// The observer.
+    pub fn observer(&self) -> &MomentumObserver<N> {
+        &self.observer
+    }
+
+    /// The detector.
+    pub fn detector(&self) -> &CollisionDetector<N> {
+        &self.detector
+    }
+
+    /// Installs a payload estimate (see [`MomentumObserver::set_payload`]).
+    pub fn set_payload(&mut self, payload: PayloadCompensation) -> Result<(), Fault> {
+        self.observer.set_payload(payload)
+    }
+
+    /// Operator acknowledgement (resume after a stop or an operator hold).
+    pub fn acknowledge(&mut self) {
+        self.supervisor.acknowledge();
+    }
+
+    /// Processes one sample.
+    pub fn step(&mut self, input: &ObserverInput<N>) -> MonitorOutput<N> {
+        let observed = self.observer.step(input);
+        let mut detection = None;
+        let mut onset = None;
+        if observed.status.residual_updated() {
+            let mut d = self.detector.update(
+                &observed.residual,
+                &observed.velocity,
+                observed.cycle,
+                observed.time_s,
+            );
+            if let Detection::Onset(event) = &mut d {
+                if event.isolated_link + 1 == N {
+                    event.contact_wrench = estimate_contact_wrench(
+                        self.observer.model(),
+                        &mut self.wrench_data,
+                        &input.q,
+                        &observed.residual,
+                        N - 1,
+                        &self.contact_point,
+                        self.wrench_damping,
+                    );
+                }
+                onset = Some(*event);
+            }
+            detection = Some(d);
+        }
+        let fault = match observed.status {
+            ObserverStatus::Rejected(f) | ObserverStatus::Degraded(f) => Some(f),
+            _ => None,
+        };
+        let reaction = self.supervisor.update(
+            observed.time_s,
+            onset.as_ref(),
+            self.detector.in_contact(),
+            fault,
+        );
+        MonitorOutput {
+            observer: observed,
+            detection,
+            reaction,
+            reaction_state: self.supervisor.state(),
+        }
+    }
+}

@@ -258,3 +258,19 @@ fn binding_a_non_local_address_fails_with_a_typed_error() {
         "{err}"
     );
 }
+
+#[test]
+fn datagrams_from_an_unexpected_source_are_not_answered() {
+    let mut c = config();
+    c.session.controller_ip = Some("127.0.0.2".parse().unwrap());
+    let endpoint = Endpoint::spawn(c, monitor_hook()).unwrap();
+    let peer = Peer::new(endpoint.local_addr()); // sends from 127.0.0.1
+    peer.send(&measurement_datagram(1, 0));
+    peer.expect_silence(Duration::from_millis(100));
+    let s = wait_for(&endpoint, |s| {
+        s.statistics.rejections.unexpected_source == 1
+    });
+    assert_eq!(s.statistics.rejections.unexpected_source, 1);
+    assert!(!s.valid);
+    endpoint.shutdown().unwrap();
+}

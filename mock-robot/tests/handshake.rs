@@ -97,9 +97,12 @@ fn request_manually(
     panic!("request {id} never acknowledged");
 }
 
+/// Name, flags, requested strategy, expected reason, how to spoil the command.
+type RefusalCase = (&'static str, u32, i32, DropReason, fn(&mut fri::wire::Command));
+
 #[test]
 fn refused_starts_report_their_reason() {
-    let cases: [(&str, u32, i32, DropReason, fn(&mut fri::wire::Command)); 5] = [
+    let cases: [RefusalCase; 5] = [
         (
             "not mirrored",
             0x0001,

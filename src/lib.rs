@@ -9,3 +9,4 @@ pub mod ipc;
 pub mod motion;
 pub mod operator;
 pub mod persistence;
+pub mod service;

@@ -1,0 +1,215 @@
+//! The daemon: the real-time cycle processor on the FRI endpoint thread, the fan-out of its
+//! state to tokio and iceoryx2, the operator workflows and the command handler.
+//!
+//! Data path per cycle (architecture.md): `fri::endpoint` thread receives and validates the
+//! measurement → [`rt::CycleProcessor`] (observer step, reaction, motion, handshake) → reply;
+//! the cycle's state goes through a bounded queue to the [`fanout`] thread, which feeds the
+//! tokio side ([`fanout::Shared`]) and iceoryx2. Operator requests go back through a bounded
+//! queue read with `try_recv` by the processor.
+
+pub mod core;
+pub mod fanout;
+pub mod handler;
+pub mod pattern;
+pub mod rt;
+pub mod settle;
+
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::sync::mpsc::sync_channel;
+
+use anyhow::Context as _;
+use dynamics::Model;
+use fri::endpoint::{Endpoint, EndpointConfig};
+use nalgebra::SVector;
+use safety::{CollisionMonitor, GravitySource, MonitorConfig, ReactionPolicy as SafetyPolicy};
+use tokio::sync::watch;
+
+use crate::config::{Config, ReactionPolicy};
+use crate::ipc::{IpcNames, IpcThread};
+use crate::motion::MotionLimits;
+use crate::operator::server::{self, AccessPolicy, ServerLimits};
+use crate::persistence::StateStore;
+use core::{ServiceCore, compensation};
+use handler::ServiceHandler;
+use rt::{CycleProcessor, ProcessorSettings, RtRequest};
+
+/// Capacity of the loop → fan-out queue, messages (≈ 4 s at 1 kHz).
+const EVENT_QUEUE: usize = 4096;
+/// Capacity of the operator → loop queue, requests.
+const REQUEST_QUEUE: usize = 64;
+
+/// Builds the collision monitor from the configuration (unloaded model; the payload is set
+/// separately).
+pub fn build_monitor(
+    config: &Config,
+    model: Model<7>,
+) -> Result<CollisionMonitor<7>, safety::ConfigError> {
+    let mut mc = MonitorConfig::<7>::new(config.fri.cycle_s, safety::DEFAULT_GAIN);
+    mc.observer.gains = SVector::from(config.observer.gains);
+    mc.observer.gravity_source = GravitySource::Model;
+    mc.detector.thresholds_nm = SVector::from(config.observer.thresholds);
+    mc.reaction = match config.reaction.policy {
+        ReactionPolicy::Pause => SafetyPolicy::PauseThenResume {
+            pause_s: config.reaction.pause_s,
+        },
+        ReactionPolicy::Stop | ReactionPolicy::Report => SafetyPolicy::Stop,
+    };
+    CollisionMonitor::new(model, mc)
+}
+
+/// A running service: endpoint, fan-out and iceoryx2 threads, and the shared core.
+pub struct RunningService {
+    /// The core shared with the operator handler.
+    pub core: Arc<ServiceCore>,
+    endpoint: Option<Arc<Endpoint>>,
+    ipc: Option<IpcThread>,
+    fanout: Option<std::thread::JoinHandle<()>>,
+}
+
+impl std::fmt::Debug for RunningService {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RunningService").finish_non_exhaustive()
+    }
+}
+
+impl RunningService {
+    /// Starts everything except the operator socket.
+    pub fn start(config: Config) -> anyhow::Result<Self> {
+        config.validate()?;
+        let model = dynamics::lwr4();
+        let store = StateStore::open(&config.state.dir)
+            .with_context(|| format!("state directory {}", config.state.dir.display()))?;
+        let payload = store
+            .load_payload()
+            .context("reloading the applied payload")?;
+        let tare = store.load_tare().context("reloading the tare")?;
+
+        let (ipc_thread, ipc) = if config.iceoryx2.enabled {
+            let names = IpcNames {
+                service_prefix: config.iceoryx2.service_prefix.clone(),
+                global_prefix: config.iceoryx2.global_prefix.clone(),
+            };
+            let (t, s) = IpcThread::spawn(names).context("starting iceoryx2 publication")?;
+            (Some(t), Some(s))
+        } else {
+            (None, None)
+        };
+
+        let shared = fanout::Shared::new();
+        let (event_tx, event_rx) = sync_channel(EVENT_QUEUE);
+        let (request_tx, request_rx) = sync_channel(REQUEST_QUEUE);
+        let fanout = fanout::spawn(event_rx, shared.clone(), ipc.clone())
+            .context("starting the fan-out thread")?;
+
+        let monitor = build_monitor(&config, model.clone()).context("observer configuration")?;
+        let m = &config.motion;
+        let settings = ProcessorSettings {
+            cycle_s: config.fri.cycle_s,
+            limits: MotionLimits {
+                velocity: SVector::from(m.max_velocity),
+                acceleration: SVector::from(m.max_acceleration),
+                jerk: SVector::from(m.max_jerk),
+            },
+            react: config.reaction.policy != ReactionPolicy::Report,
+            armed: config.observer.armed,
+        };
+        let processor = CycleProcessor::new(settings, monitor, request_rx, event_tx);
+        if let Some(p) = &payload {
+            request_tx
+                .try_send(RtRequest::SetPayload(Some(compensation(p))))
+                .ok();
+            tracing::info!(mass = p.mass, com = ?p.com, "reloaded applied payload");
+        }
+
+        let mut ec = EndpointConfig::default();
+        ec.socket.bind = config.fri.bind;
+        ec.session.controller_ip = config.fri.controller;
+        let endpoint =
+            Arc::new(Endpoint::spawn(ec, processor).context("starting the FRI endpoint")?);
+        // A weak handle: the core must not keep the loop alive after shutdown.
+        let source = Arc::downgrade(&endpoint);
+        let core = Arc::new(ServiceCore::new(
+            config,
+            model,
+            shared,
+            request_tx,
+            store,
+            payload,
+            tare,
+            ipc,
+            Some(Arc::new(move || {
+                source.upgrade().map(|e| e.latest()).unwrap_or_default()
+            })),
+        ));
+        Ok(Self {
+            core,
+            endpoint: Some(endpoint),
+            ipc: ipc_thread,
+            fanout: Some(fanout),
+        })
+    }
+
+    /// The FRI endpoint's bound address (useful with port 0).
+    pub fn fri_addr(&self) -> Option<SocketAddr> {
+        self.endpoint.as_ref().map(|e| e.local_addr())
+    }
+
+    /// Serves the operator socket until `shutdown` becomes true.
+    pub async fn serve_operator(&self, shutdown: watch::Receiver<bool>) -> anyhow::Result<()> {
+        let c = &self.core.config().operator;
+        let listener = server::bind(&c.socket).await?;
+        tracing::info!(socket = %c.socket.display(), "operator socket listening");
+        let policy = AccessPolicy {
+            allowed_uids: c.allowed_uids.clone(),
+            allowed_gids: c.allowed_gids.clone(),
+        };
+        let limits = ServerLimits {
+            max_line_bytes: c.max_line_bytes,
+            max_clients: c.max_clients,
+            ..ServerLimits::default()
+        };
+        server::serve(
+            listener,
+            Arc::new(ServiceHandler(self.core.clone())),
+            policy,
+            limits,
+            shutdown,
+        )
+        .await;
+        let _ = std::fs::remove_file(&c.socket);
+        Ok(())
+    }
+
+    /// Stops the loop and the helper threads.
+    pub fn shutdown(mut self) {
+        self.stop();
+    }
+
+    fn stop(&mut self) {
+        if let Some(e) = self.endpoint.take() {
+            // The core holds a clone for `status`; the loop stops when the last one goes.
+            match Arc::try_unwrap(e) {
+                Ok(e) => {
+                    let _ = e.shutdown();
+                }
+                Err(e) => drop(e),
+            }
+        }
+        if let Some(f) = self.fanout.take() {
+            // Ends once the processor (on the endpoint thread) is gone.
+            if f.is_finished() {
+                let _ = f.join();
+            }
+        }
+        if let Some(t) = self.ipc.take() {
+            drop(t);
+        }
+    }
+}
+
+impl Drop for RunningService {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}

@@ -1,0 +1,473 @@
+//! The per-cycle work of the service on the FRI loop thread: observer step, reaction, commanded
+//! motion, handshake, and hand-off of the cycle's state to the non-real-time side.
+//!
+//! [`CycleProcessor::on_measurement`] runs once per accepted measurement, between
+//! `fri::session::Session::receive` and `respond`. It never blocks and never allocates in steady
+//! state: operator requests arrive through a bounded queue read with `try_recv`, and each cycle's
+//! [`RobotState`] plus events leave through a bounded queue written with `try_send` (dropped and
+//! counted when the reader is behind).
+
+use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
+
+use fri::endpoint::{CycleHook, CycleOutput};
+use fri::handshake::{HandshakeRequest, HandshakeStatus, KrlStatus, KrlStrategy, RequestKind};
+use fri::session::DesiredCommand;
+use fri::wire::{InterfaceState, Measurement, Quality};
+use nalgebra::SVector;
+use safety::{CollisionMonitor, ObserverInput, PayloadCompensation, ReactionRequest, StopCause};
+
+use crate::ipc::messages::flags;
+use crate::ipc::{CollisionEvent, RobotState};
+use crate::motion::{JointMove, MotionLimits};
+
+type V7 = SVector<f64, 7>;
+
+/// Cycles between two handshake requests of the same kind (retry period when the controller does
+/// not follow), at 1 ms: 0.5 s.
+const REQUEST_RETRY_CYCLES: u64 = 500;
+
+/// Requests from the operator side to the loop.
+#[derive(Debug)]
+pub enum RtRequest {
+    /// Enter command mode if needed and move to this joint position (rad), jerk-limited.
+    MoveTo([f64; 7]),
+    /// Leave command mode once no move is pending.
+    ReleaseCommandMode,
+    /// Operator stop: brake any move and hold; refuse moves until [`RtRequest::Resume`].
+    Stop,
+    /// Clear an operator stop and acknowledge a collision reaction.
+    Resume,
+    /// Install a payload in the observer (paper eq. 48); `None` removes it.
+    SetPayload(Option<PayloadCompensation>),
+    /// Arm (true) or disarm (false) the collision reaction.
+    Arm(bool),
+    /// Replace the collision monitor (new thresholds or gains); the payload is carried over.
+    ReplaceMonitor(Box<CollisionMonitor<7>>),
+}
+
+/// What the loop reports to the non-real-time side.
+#[allow(clippy::large_enum_variant)] // by value on purpose: no allocation per cycle
+#[derive(Debug, Clone, Copy)]
+pub enum RtEvent {
+    /// The state of one cycle.
+    State(RobotState),
+    /// A collision onset.
+    Collision(CollisionEvent),
+    /// The loop stopped the arm (collision reaction or operator stop); `collision` tells which.
+    Stopped {
+        /// Cycle of the stop.
+        cycle: u64,
+        /// True for a collision reaction, false for an operator stop or a fault.
+        collision: bool,
+    },
+    /// The arm resumed (reaction ended or operator resume).
+    Resumed {
+        /// Cycle of the resume.
+        cycle: u64,
+    },
+    /// A commanded move ended without reaching its target (stop, or command mode lost).
+    MoveAborted {
+        /// Cycle of the abort.
+        cycle: u64,
+    },
+}
+
+/// Settings of the processor.
+#[derive(Debug, Clone, Copy)]
+pub struct ProcessorSettings {
+    /// Controller cycle, s.
+    pub cycle_s: f64,
+    /// Limits of commanded moves.
+    pub limits: MotionLimits<7>,
+    /// Whether a collision reaction stops the arm (false = report only).
+    pub react: bool,
+    /// Armed at start.
+    pub armed: bool,
+}
+
+/// Per-cycle application logic of the service (see the module documentation).
+pub struct CycleProcessor {
+    settings: ProcessorSettings,
+    monitor: Box<CollisionMonitor<7>>,
+    payload: Option<PayloadCompensation>,
+    armed: bool,
+    requests: Receiver<RtRequest>,
+    events: SyncSender<RtEvent>,
+    dropped_events: u64,
+    cycle: u64,
+    time_s: f64,
+    last_seq: Option<u16>,
+    in_command: bool,
+    command_wanted: bool,
+    pending_target: Option<V7>,
+    motion: Option<(JointMove<7>, f64, V7)>,
+    setpoint: Option<V7>,
+    operator_stop: bool,
+    reaction_hold: bool,
+    interrupted_target: Option<V7>,
+    last_request_cycle: u64,
+    last_residual: V7,
+    observer_fault: bool,
+    collision_now: bool,
+}
+
+impl std::fmt::Debug for CycleProcessor {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CycleProcessor")
+            .field("cycle", &self.cycle)
+            .field("in_command", &self.in_command)
+            .finish_non_exhaustive()
+    }
+}
+
+impl CycleProcessor {
+    /// A processor with its monitor, request queue and event queue.
+    pub fn new(
+        settings: ProcessorSettings,
+        monitor: CollisionMonitor<7>,
+        requests: Receiver<RtRequest>,
+        events: SyncSender<RtEvent>,
+    ) -> Self {
+        Self {
+            armed: settings.armed,
+            settings,
+            monitor: Box::new(monitor),
+            payload: None,
+            requests,
+            events,
+            dropped_events: 0,
+            cycle: 0,
+            time_s: 0.0,
+            last_seq: None,
+            in_command: false,
+            command_wanted: false,
+            pending_target: None,
+            motion: None,
+            setpoint: None,
+            operator_stop: false,
+            reaction_hold: false,
+            interrupted_target: None,
+            last_request_cycle: 0,
+            last_residual: V7::zeros(),
+            observer_fault: false,
+            collision_now: false,
+        }
+    }
+
+    /// Events dropped because the non-real-time side was behind.
+    pub fn dropped_events(&self) -> u64 {
+        self.dropped_events
+    }
+
+    /// Cycles processed.
+    pub fn cycles(&self) -> u64 {
+        self.cycle
+    }
+
+    fn emit(&mut self, e: RtEvent) {
+        if let Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) = self.events.try_send(e)
+        {
+            self.dropped_events += 1;
+        }
+    }
+
+    fn handle_requests(&mut self) {
+        // A bounded number per cycle keeps the cycle time bounded.
+        for _ in 0..8 {
+            let Ok(request) = self.requests.try_recv() else {
+                return;
+            };
+            match request {
+                RtRequest::MoveTo(target) => {
+                    let target = V7::from(target);
+                    if !self.operator_stop && !self.reaction_hold {
+                        self.pending_target = Some(target);
+                        self.command_wanted = true;
+                    } else {
+                        self.emit(RtEvent::MoveAborted { cycle: self.cycle });
+                    }
+                }
+                RtRequest::ReleaseCommandMode => {
+                    self.command_wanted = false;
+                }
+                RtRequest::Stop => {
+                    self.operator_stop = true;
+                    self.brake();
+                    self.emit(RtEvent::Stopped {
+                        cycle: self.cycle,
+                        collision: false,
+                    });
+                }
+                RtRequest::Resume => {
+                    let was = self.operator_stop || self.reaction_hold;
+                    self.operator_stop = false;
+                    self.reaction_hold = false;
+                    self.interrupted_target = None;
+                    self.monitor.acknowledge();
+                    if was {
+                        self.emit(RtEvent::Resumed { cycle: self.cycle });
+                    }
+                }
+                RtRequest::SetPayload(p) => {
+                    let compensation = p.clone().unwrap_or(PayloadCompensation::None);
+                    // A rejected estimate leaves the previous payload in use (the safety crate
+                    // reports it as a fault); the operator side validated it already.
+                    if self.monitor.set_payload(compensation).is_ok() {
+                        self.payload = p;
+                    }
+                }
+                RtRequest::Arm(on) => self.armed = on,
+                RtRequest::ReplaceMonitor(mut m) => {
+                    let _ =
+                        m.set_payload(self.payload.clone().unwrap_or(PayloadCompensation::None));
+                    self.monitor = m;
+                }
+            }
+        }
+    }
+
+    /// Brakes the current move (if any) and forgets pending ones.
+    fn brake(&mut self) {
+        self.pending_target = None;
+        let t = self.time_s;
+        if let Some((m, t0, target)) = &mut self.motion {
+            m.stop_at(t - *t0);
+            self.interrupted_target = Some(*target);
+        }
+    }
+
+    fn apply_reaction(&mut self, request: ReactionRequest<7>) {
+        match request {
+            ReactionRequest::Stop(cause)
+            | ReactionRequest::Pause { cause, .. }
+            | ReactionRequest::HoldForOperator(cause) => {
+                let collision = matches!(cause, StopCause::Collision(_));
+                if self.armed && (self.settings.react || !collision) {
+                    self.reaction_hold = true;
+                    self.brake();
+                    self.emit(RtEvent::Stopped {
+                        cycle: self.cycle,
+                        collision,
+                    });
+                }
+            }
+            ReactionRequest::Resume => {
+                if self.reaction_hold {
+                    self.reaction_hold = false;
+                    // The paper's pause-then-resume: continue the interrupted move.
+                    if !self.operator_stop
+                        && let Some(t) = self.interrupted_target.take()
+                    {
+                        self.pending_target = Some(t);
+                    }
+                    self.emit(RtEvent::Resumed { cycle: self.cycle });
+                }
+            }
+        }
+    }
+
+    /// Processes one accepted measurement: `handshake` is the KRL report in it and `request` the
+    /// handshake request we currently send. Returns the command wish for the session and, when
+    /// needed, a new handshake request.
+    pub fn on_measurement(
+        &mut self,
+        msr: &Measurement,
+        handshake: HandshakeStatus,
+        request: HandshakeRequest,
+    ) -> (DesiredCommand, Option<(RequestKind, KrlStrategy)>) {
+        // Time from the controller's sequence counter, never from the host clock.
+        let seq = msr.header.send_seq_count;
+        let elapsed = match self.last_seq {
+            Some(prev) => {
+                let d = seq.wrapping_sub(prev);
+                // A restart or a long gap counts as one period; the observer resynchronises.
+                if d == 0 || d > 100 { 1 } else { d }
+            }
+            None => 1,
+        };
+        self.last_seq = Some(seq);
+        let dt = self.settings.cycle_s * f64::from(elapsed);
+        self.cycle += 1;
+        self.time_s += dt;
+
+        self.handle_requests();
+
+        let q = V7::from(msr.data.msr_jnt_pos);
+        let tau = V7::from(msr.data.msr_jnt_trq);
+        let gravity = V7::from(msr.data.gravity);
+        let mut input = ObserverInput::new(q, tau, dt);
+        input.controller_gravity = Some(gravity);
+        let out = self.monitor.step(&input);
+        self.last_residual = out.observer.residual;
+        self.observer_fault = out.observer.status.fault().is_some();
+        self.collision_now = self.monitor.detector().in_contact();
+        if let Some(safety::Detection::Onset(e)) = out.detection {
+            let mut residual = [0.0; 7];
+            residual.copy_from_slice(e.residual.as_slice());
+            self.emit(RtEvent::Collision(CollisionEvent {
+                cycle: self.cycle,
+                time_s: self.time_s,
+                residual,
+                joints_mask: e.joints_over.0,
+                link: (e.isolated_link + 1) as u32,
+            }));
+        }
+        if let Some(r) = out.reaction {
+            self.apply_reaction(r);
+        }
+
+        let (desired, new_request) = self.command(msr, handshake, request);
+        self.publish(msr, &out.observer.velocity);
+        (desired, new_request)
+    }
+
+    fn command(
+        &mut self,
+        msr: &Measurement,
+        handshake: HandshakeStatus,
+        request: HandshakeRequest,
+    ) -> (DesiredCommand, Option<(RequestKind, KrlStrategy)>) {
+        let in_command = msr.interface.state == InterfaceState::Command && msr.drives_powered();
+        if in_command && !self.in_command {
+            // Entry: the session's step limits start from the mirrored set-point.
+            self.setpoint = Some(V7::from(msr.mirrored_joint_position()));
+            self.motion = None;
+        }
+        if !in_command && self.in_command {
+            // Command mode lost (controller dropped it, or we released it).
+            if self.motion.is_some() || self.pending_target.is_some() {
+                self.emit(RtEvent::MoveAborted { cycle: self.cycle });
+            }
+            self.motion = None;
+            self.pending_target = None;
+            self.command_wanted = self.command_wanted && !self.operator_stop;
+        }
+        self.in_command = in_command;
+
+        let new_request = self.handshake(msr, handshake, request);
+
+        let mut desired = DesiredCommand::default();
+        if !in_command {
+            return (desired, new_request);
+        }
+        if self.motion.is_none()
+            && let (Some(target), Some(start)) = (self.pending_target, self.setpoint)
+            && !self.operator_stop
+            && !self.reaction_hold
+        {
+            self.pending_target = None;
+            match JointMove::new(start, target, self.settings.limits) {
+                Ok(m) => self.motion = Some((m, self.time_s, target)),
+                Err(_) => self.emit(RtEvent::MoveAborted { cycle: self.cycle }),
+            }
+        }
+        if let Some((m, t0, _)) = &self.motion {
+            let t = self.time_s - *t0;
+            self.setpoint = Some(m.sample(t).position);
+            if m.is_finished(t) {
+                if m.is_braking() {
+                    self.emit(RtEvent::MoveAborted { cycle: self.cycle });
+                }
+                self.motion = None;
+            }
+        }
+        desired.joint_position = self.setpoint.map(|s| {
+            let mut a = [0.0; 7];
+            a.copy_from_slice(s.as_slice());
+            a
+        });
+        (desired, new_request)
+    }
+
+    fn handshake(
+        &mut self,
+        msr: &Measurement,
+        status: HandshakeStatus,
+        current: HandshakeRequest,
+    ) -> Option<(RequestKind, KrlStrategy)> {
+        let since = self.cycle.saturating_sub(self.last_request_cycle);
+        let quality_ok = matches!(msr.interface.quality, Quality::Ok | Quality::Perfect);
+        let busy = self.motion.is_some() || self.pending_target.is_some();
+        if self.command_wanted && !self.in_command {
+            let start_pending =
+                current.kind == RequestKind::StartCommandMode && since < REQUEST_RETRY_CYCLES;
+            if !start_pending && status.status == KrlStatus::MonitorReady && quality_ok {
+                self.last_request_cycle = self.cycle;
+                return Some((RequestKind::StartCommandMode, KrlStrategy::JointPosition));
+            }
+        } else if !self.command_wanted && self.in_command && !busy {
+            let stop_pending =
+                current.kind == RequestKind::StopCommandMode && since < REQUEST_RETRY_CYCLES;
+            if !stop_pending {
+                self.last_request_cycle = self.cycle;
+                return Some((RequestKind::StopCommandMode, KrlStrategy::None));
+            }
+        }
+        None
+    }
+
+    fn publish(&mut self, msr: &Measurement, velocity: &V7) {
+        let mut f = 0;
+        if self.in_command {
+            f |= flags::COMMAND_MODE;
+        }
+        if self.armed {
+            f |= flags::MONITOR_ARMED;
+        }
+        if self.collision_now {
+            f |= flags::COLLISION;
+        }
+        if self.operator_stop || self.reaction_hold {
+            f |= flags::STOPPED;
+        }
+        if self.payload.is_some() {
+            f |= flags::PAYLOAD_APPLIED;
+        }
+        if self.observer_fault {
+            f |= flags::OBSERVER_FAULT;
+        }
+        if self.motion.is_some() || self.pending_target.is_some() {
+            f |= flags::MOVING;
+        }
+        let mut qd = [0.0; 7];
+        qd.copy_from_slice(velocity.as_slice());
+        let mut residual = [0.0; 7];
+        residual.copy_from_slice(self.last_residual.as_slice());
+        let state = RobotState {
+            cycle: self.cycle,
+            time_s: self.time_s,
+            q: msr.data.msr_jnt_pos,
+            qd,
+            tau: msr.data.msr_jnt_trq,
+            gravity: msr.data.gravity,
+            tau_ext: msr.data.est_ext_jnt_trq,
+            residual,
+            flags: f,
+            fri_state: match msr.interface.state {
+                InterfaceState::Monitor => 1,
+                InterfaceState::Command => 2,
+                _ => 0,
+            },
+            quality: match msr.interface.quality {
+                Quality::Perfect => 3,
+                Quality::Ok => 2,
+                Quality::Bad => 1,
+                _ => 0,
+            },
+            reserved: 0,
+        };
+        self.emit(RtEvent::State(state));
+    }
+}
+
+impl CycleHook for CycleProcessor {
+    fn on_cycle(&mut self, state: &fri::state::RobotState, output: &mut CycleOutput) {
+        if !state.valid {
+            return;
+        }
+        let (desired, request) =
+            self.on_measurement(&state.measurement, state.handshake, state.request);
+        output.desired = desired;
+        output.request = request;
+    }
+}

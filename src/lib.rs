@@ -7,6 +7,7 @@
 pub mod config;
 pub mod ipc;
 pub mod motion;
+pub mod offline;
 pub mod operator;
 pub mod persistence;
 pub mod service;

@@ -1,0 +1,113 @@
+//! Human-readable reports: units, frames and 1σ uncertainties on every number.
+
+use std::fmt::Write as _;
+
+use estimator::estimate::{Correction, Method, PayloadEstimate};
+use estimator::poses::Prediction;
+
+fn mm(v: f64) -> String {
+    format!("{:+8.2}", v * 1000.0)
+}
+
+fn mm_std(v: f64) -> String {
+    format!("{:8.2}", v * 1000.0)
+}
+
+/// Report of a static estimate.
+pub fn payload(e: &PayloadEstimate, last_frame: usize) -> String {
+    let mut s = String::new();
+    let method = match e.method {
+        Method::Direct => "direct least squares on the payload gravity regressor",
+        Method::Coefficients => "paper's coefficient route (eqs. 26-28)",
+    };
+    let correction = match e.correction {
+        Correction::None => "none (one-shot tau_J - g_ctrl; includes the controller's model error)",
+        Correction::Tare => "tare (unloaded samples at the same poses subtracted)",
+        Correction::Calibration => "calibration (stored controller model error removed)",
+    };
+    let _ = writeln!(s, "Payload estimate");
+    let _ = writeln!(s, "  method       {method}");
+    let _ = writeln!(s, "  correction   {correction}");
+    let _ = writeln!(
+        s,
+        "  mass         {:.4} kg  ± {:.4} kg (1σ, {:.2} %)",
+        e.mass,
+        e.mass_std,
+        100.0 * e.mass_std / e.mass
+    );
+    let _ = writeln!(
+        s,
+        "  CoM, frame {last_frame} (last DH frame)   [mm]  x {}  y {}  z {}",
+        mm(e.com[0]),
+        mm(e.com[1]),
+        mm(e.com[2])
+    );
+    let _ = writeln!(
+        s,
+        "                             ± 1σ [mm]    {}    {}    {}",
+        mm_std(e.com_std[0]),
+        mm_std(e.com_std[1]),
+        mm_std(e.com_std[2])
+    );
+    let _ = writeln!(
+        s,
+        "  CoM, flange frame           [mm]  x {}  y {}  z {}",
+        mm(e.com_flange[0]),
+        mm(e.com_flange[1]),
+        mm(e.com_flange[2])
+    );
+    let _ = writeln!(
+        s,
+        "                             ± 1σ [mm]    {}    {}    {}",
+        mm_std(e.com_flange_std[0]),
+        mm_std(e.com_flange_std[1]),
+        mm_std(e.com_flange_std[2])
+    );
+    let _ = writeln!(
+        s,
+        "  first moment m·c, frame {last_frame} [kg·m]  {:+.5} {:+.5} {:+.5}  (± {:.5} {:.5} {:.5})",
+        e.first_moment[0],
+        e.first_moment[1],
+        e.first_moment[2],
+        e.first_moment_std[0],
+        e.first_moment_std[1],
+        e.first_moment_std[2]
+    );
+    let joints: Vec<String> = e.joints_used.iter().map(|j| j.to_string()).collect();
+    let _ = writeln!(
+        s,
+        "  fit          {} samples, joints {} used, condition number {:.1}, residual σ {:.4} Nm",
+        e.samples,
+        joints.join(","),
+        e.condition_number,
+        e.residual_std
+    );
+    let rms: Vec<String> = e
+        .residual_rms
+        .iter()
+        .enumerate()
+        .map(|(j, r)| format!("J{} {:.3}", j + 1, r))
+        .collect();
+    let _ = writeln!(s, "  residual RMS per joint [Nm]  {}", rms.join("  "));
+    let _ = writeln!(
+        s,
+        "  (1σ from the residual variance: sensor noise and any model error the residuals show;"
+    );
+    let _ = writeln!(
+        s,
+        "   a model error aliased with the payload is invisible here — use --tare or --calibration)"
+    );
+    s
+}
+
+/// Report of a pose-design prediction.
+pub fn prediction(p: &Prediction, sigma: f64) -> String {
+    format!(
+        "Predicted 1σ (torque noise {sigma} Nm per joint, no model error): mass {:.4} kg, CoM [mm] x {:.2} y {:.2} z {:.2}, condition number {:.1}\n",
+        p.mass_std,
+        p.com_std[0] * 1000.0,
+        p.com_std[1] * 1000.0,
+        p.com_std[2] * 1000.0,
+        p.condition_number
+    )
+}

@@ -1,0 +1,278 @@
+//! `fri-ctl offline …` end to end on the committed fixtures (written by
+//! `cargo run -p estimator --example cli_fixtures -- tests/fixtures`): LWR 4+ with 3.028 kg at
+//! (0, 0, 0.119) m in frame 7, controller model perturbed as in lwr4-model.md §4, σ = 0.05 Nm.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+use std::process::{Command, Output};
+
+fn fixture(name: &str) -> String {
+    format!("{}/tests/fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn fri_ctl(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_fri-ctl"))
+        .arg("offline")
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn ok_json(args: &[&str]) -> serde_json::Value {
+    let out = fri_ctl(args);
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+fn err_text(args: &[&str]) -> String {
+    let out = fri_ctl(args);
+    assert!(!out.status.success(), "{args:?} should fail");
+    assert!(out.stdout.is_empty());
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+#[test]
+fn estimate_json_has_the_documented_keys_and_values() {
+    let v = ok_json(&[
+        "estimate",
+        "--samples",
+        &fixture("lwr4_loaded_q10.csv"),
+        "--json",
+    ]);
+    for key in [
+        "mass",
+        "com",
+        "com_flange",
+        "mass_std",
+        "com_std",
+        "condition_number",
+        "samples",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key}: {v}");
+    }
+    let m = v["mass"].as_f64().unwrap();
+    // one-shot carries the controller's model error: about +1 %
+    assert!((m / 3.028 - 1.0).abs() < 0.02, "{m}");
+    assert_eq!(v["samples"].as_u64(), Some(10));
+    let cz = v["com"][2].as_f64().unwrap();
+    let cz_flange = v["com_flange"][2].as_f64().unwrap();
+    assert!((cz - cz_flange - 0.078).abs() < 1e-9);
+    assert!((cz - 0.119).abs() < 0.01, "{cz}");
+}
+
+#[test]
+fn tare_and_calibration_remove_the_bias() {
+    let t = ok_json(&[
+        "estimate",
+        "--samples",
+        &fixture("lwr4_loaded_q10.csv"),
+        "--tare",
+        &fixture("lwr4_tare_q10.csv"),
+        "--json",
+    ]);
+    let mt = t["mass"].as_f64().unwrap();
+    let st = t["mass_std"].as_f64().unwrap();
+    assert!((mt - 3.028).abs() < 3.0 * st, "tare {mt} ± {st}");
+    assert_eq!(t["correction"], "tare");
+
+    let dir = std::env::temp_dir().join(format!("fri-ctl-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let cal = dir.join("cal.json");
+    let c = ok_json(&[
+        "calibrate",
+        "--samples",
+        &fixture("lwr4_unloaded_workspace.csv"),
+        "--out",
+        cal.to_str().unwrap(),
+        "--json",
+    ]);
+    assert_eq!(c["delta"].as_array().unwrap().len(), 12);
+    let e = ok_json(&[
+        "estimate",
+        "--samples",
+        &fixture("lwr4_loaded_q10.csv"),
+        "--calibration",
+        cal.to_str().unwrap(),
+        "--json",
+    ]);
+    let mc = e["mass"].as_f64().unwrap();
+    let sc = e["mass_std"].as_f64().unwrap();
+    assert!(
+        (mc - 3.028).abs() < 3.0 * sc + 0.004,
+        "calibrated {mc} ± {sc}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn human_report_shows_units_frames_and_uncertainty() {
+    let out = fri_ctl(&[
+        "estimate",
+        "--samples",
+        &fixture("lwr4_loaded_q10.csv"),
+        "--method",
+        "coefficients",
+    ]);
+    assert!(out.status.success());
+    let s = String::from_utf8(out.stdout).unwrap();
+    for needle in [
+        "kg",
+        "± ",
+        "1σ",
+        "frame 7",
+        "flange frame",
+        "[mm]",
+        "condition number",
+        "Nm",
+        "coefficient route",
+    ] {
+        assert!(s.contains(needle), "missing `{needle}` in\n{s}");
+    }
+}
+
+#[test]
+fn coefficients_reproduce_the_paper() {
+    let v = ok_json(&[
+        "coefficients",
+        "--set",
+        "planar-2r",
+        "--unloaded",
+        &fixture("planar2r_pi_unloaded.json"),
+        "--loaded",
+        &fixture("planar2r_pi_loaded.json"),
+        "--json",
+    ]);
+    let p: Vec<f64> = v["p_l"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    let printed = [1.5, 0.45, 0.15, 0.1814];
+    for (a, b) in p.iter().zip(printed) {
+        assert!((a - b).abs() < 5e-5, "{p:?}");
+    }
+    let v = ok_json(&[
+        "coefficients",
+        "--set",
+        "lwr4-gravity",
+        "--unloaded",
+        &fixture("lwr4_pig_unloaded.json"),
+        "--loaded",
+        &fixture("lwr4_pig_loaded.json"),
+        "--json",
+    ]);
+    assert!((v["mass"].as_f64().unwrap() - 3.067).abs() < 5e-4);
+    assert!((v["com"][2].as_f64().unwrap() - 0.1196).abs() < 5e-5);
+    let e = err_text(&[
+        "coefficients",
+        "--set",
+        "planar-2r",
+        "--unloaded",
+        &fixture("lwr4_pig_unloaded.json"),
+        "--loaded",
+        &fixture("planar2r_pi_loaded.json"),
+    ]);
+    assert!(
+        e.contains("12 elements") && e.contains("6 coefficients"),
+        "{e}"
+    );
+    let e = err_text(&[
+        "coefficients",
+        "--set",
+        "no-such-set",
+        "--unloaded",
+        &fixture("planar2r_pi_unloaded.json"),
+        "--loaded",
+        &fixture("planar2r_pi_loaded.json"),
+    ]);
+    assert!(e.contains("neither a built-in set"), "{e}");
+}
+
+#[test]
+fn poses_paper_and_optimised() {
+    let around = "0,0.5235987756,0,-1.0471975512,0,1.0471975512,0";
+    let paper = ok_json(&[
+        "poses", "--robot", "lwr4", "--around", around, "--count", "10", "--json",
+    ]);
+    assert_eq!(paper["poses"].as_array().unwrap().len(), 10);
+    let opt = ok_json(&[
+        "poses",
+        "--robot",
+        "lwr4",
+        "--around",
+        around,
+        "--count",
+        "10",
+        "--spread-deg",
+        "3",
+        "--optimize",
+        "--json",
+    ]);
+    let ps = paper["predicted"]["mass_std"].as_f64().unwrap();
+    let os = opt["predicted"]["mass_std"].as_f64().unwrap();
+    assert!(os <= 1.01 * ps, "{os} vs {ps}");
+    for q in opt["poses"].as_array().unwrap() {
+        let q2 = q[1].as_f64().unwrap();
+        assert!((q2 - std::f64::consts::FRAC_PI_6).abs() <= 3f64.to_radians() + 1e-9);
+    }
+    let e = err_text(&["poses", "--around", "0,0.5,0", "--count", "5"]);
+    assert!(e.contains("3 values") && e.contains("7 joints"), "{e}");
+}
+
+#[test]
+fn bad_inputs_fail_with_clear_errors() {
+    let cases: [(&[&str], &[&str]); 7] = [
+        (
+            &["estimate", "--samples", &fixture("lwr4_same_pose.csv")],
+            &["poses too similar", "condition number"],
+        ),
+        (
+            &["estimate", "--samples", &fixture("lwr4_6_joints.csv")],
+            &["wrong column count", "q1..q7"],
+        ),
+        (
+            &["estimate", "--samples", &fixture("lwr4_moving.csv")],
+            &["not static", "sample 5", "joint 3"],
+        ),
+        (
+            &["estimate", "--samples", &fixture("lwr4_nan.csv")],
+            &["not a finite number", "tau3"],
+        ),
+        (
+            &[
+                "estimate",
+                "--samples",
+                &fixture("lwr4_loaded_q10.csv"),
+                "--tare",
+                &fixture("lwr4_tare_shifted.csv"),
+            ],
+            &["tare pose mismatch", "sample 7", "same poses"],
+        ),
+        (
+            &["estimate", "--samples", &fixture("does_not_exist.csv")],
+            &["cannot open samples file"],
+        ),
+        (
+            &[
+                "calibrate",
+                "--samples",
+                &fixture("lwr4_tare_q10.csv"),
+                "--robot",
+                "planar-2r",
+                "--out",
+                "/nonexistent/x.json",
+            ],
+            &["wrong column count"],
+        ),
+    ];
+    for (args, needles) in cases {
+        let e = err_text(args);
+        for n in needles {
+            assert!(e.contains(n), "{args:?}: `{n}` not in {e}");
+        }
+    }
+}

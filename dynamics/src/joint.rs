@@ -18,7 +18,8 @@ pub enum JointKind {
 
 /// Classical (distal) Denavit-Hartenberg row: T = Rz(θ + q)·Tz(d)·Tx(a)·Rx(α) for a revolute
 /// joint, T = Rz(θ)·Tz(d + q)·Tx(a)·Rx(α) for a prismatic one.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct ClassicalDh {
     /// Link length a, m.
     pub a: f64,
@@ -32,7 +33,8 @@ pub struct ClassicalDh {
 
 /// Modified (proximal, Khalil) Denavit-Hartenberg row: T = Rx(α)·Tx(d)·Rz(θ + q)·Tz(r) for a
 /// revolute joint, T = Rx(α)·Tx(d)·Rz(θ)·Tz(r + q) for a prismatic one.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct ModifiedDh {
     /// Twist α about the previous x axis, rad.
     pub alpha: f64,

@@ -23,8 +23,10 @@ mod kinematics;
 mod model;
 mod regressor;
 mod rnea;
+mod robot_file;
 mod robots;
 mod spatial;
+mod urdf;
 
 pub use base_parameters::{
     BaseParameters, RegressorKind, base_parameters, base_parameters_of_columns,
@@ -45,6 +47,7 @@ pub use regressor::{
     gravity_regressor, joint_torque_regressor, payload_gravity_regressor, payload_regressor,
 };
 pub use rnea::{compute_generalized_gravity, nonlinear_effects, rnea};
+pub use robot_file::{JointSpec, LimitsSpec, LinkSpec, PoseSpec, RobotFile};
 pub use robots::{
     LWR_BASE_TO_SHOULDER, LWR_FLANGE_OFFSET, STANDARD_GRAVITY, inertia_tensor, lwr4,
     lwr4_heavy_payload, lwr4_light_payload, lwr4_limits, lwr4_links, lwr4_modified_dh, planar_2r,

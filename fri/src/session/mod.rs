@@ -300,10 +300,21 @@ impl Session {
         if !self.awaiting_reply {
             return Err(ReplyError::NothingToAnswer);
         }
-        let Some((msr, source, received_at)) = self.last_good else {
+        // Borrow the stored measurement (no copy) next to the disjoint fields `build` updates.
+        let Some((msr, source, received_at)) = &self.last_good else {
             return Err(ReplyError::NothingToAnswer);
         };
-        let mut cmd = self.build(&msr, desired);
+        let (source, received_at, mirrored) = (*source, *received_at, !Self::commanding(msr));
+        let mut cmd = build(
+            &self.config,
+            &mut self.stats.limits,
+            &mut self.frozen_flags,
+            self.have_reply.then_some(&self.last_reply),
+            self.selected_strategy,
+            &self.request,
+            msr,
+            desired,
+        );
         cmd.header.send_seq_count = self.next_send_seq;
         cmd.header.refl_seq_count = msr.header.send_seq_count;
         if let Err(e) = cmd.emit(out) {
@@ -321,7 +332,7 @@ impl Session {
         Ok(ReplyInfo {
             send_seq_count: cmd.header.send_seq_count,
             refl_seq_count: cmd.header.refl_seq_count,
-            mirrored: !Self::commanding(&msr),
+            mirrored,
             cmd_flags: cmd.cmd_flags,
             destination: source,
         })
@@ -343,93 +354,6 @@ impl Session {
     /// True when the controller applies our commands: state CMD and a drive powered.
     fn commanding(msr: &Measurement) -> bool {
         msr.interface.state == InterfaceState::Command && msr.drives_powered()
-    }
-
-    /// The command for `msr`, with every rule applied (header counters filled by the caller).
-    fn build(&mut self, msr: &Measurement, desired: &DesiredCommand) -> Command {
-        let limits = &mut self.stats.limits;
-        let commanding = Self::commanding(msr);
-        let previous = self.have_reply.then_some(&self.last_reply);
-
-        // Command flags: selected strategy in monitor mode, frozen in command mode.
-        let wanted_flags = self.selected_strategy.command_flags();
-        let cmd_flags = if msr.interface.state == InterfaceState::Command {
-            let frozen = *self.frozen_flags.get_or_insert(match previous {
-                Some(p) => p.cmd_flags,
-                // Joined while already in command mode: keep what the controller runs.
-                None => msr.robot.control.command_flags(),
-            });
-            if frozen != wanted_flags {
-                limits.flag_changes_blocked += 1;
-            }
-            frozen
-        } else {
-            self.frozen_flags = None;
-            wanted_flags
-        };
-
-        let mirrored = msr.mirrored_joint_position();
-        let (jnt_pos, add_jnt_trq) = if commanding {
-            // Step limits start from the previous reply; at entry that is the mirrored set-point.
-            let base_pos = previous.map_or(mirrored, |p| p.jnt_pos);
-            let base_trq = previous.map_or([0.0; JOINTS], |p| p.add_jnt_trq);
-            let target = desired.joint_position.unwrap_or(base_pos);
-            let pos = limit_steps(
-                &base_pos,
-                &target,
-                self.config.max_joint_step,
-                &mut limits.joint_steps_clamped,
-                &mut limits.non_finite_desired,
-            );
-            let trq = limit_steps(
-                &base_trq,
-                &desired.added_torque,
-                self.config.max_added_torque_step,
-                &mut limits.added_torque_steps_clamped,
-                &mut limits.non_finite_desired,
-            );
-            (pos, trq)
-        } else {
-            let overridden = desired.joint_position.is_some_and(|q| q != mirrored)
-                || desired.added_torque.iter().any(|t| *t != 0.0);
-            if overridden {
-                limits.mirrored_overrides += 1;
-            }
-            (mirrored, [0.0; JOINTS])
-        };
-
-        let jnt_stiffness = clamp_gains(
-            &desired.joint_stiffness,
-            self.config.max_joint_stiffness,
-            DEFAULT_JOINT_STIFFNESS,
-            limits,
-        );
-        let jnt_damping = clamp_gains(&desired.joint_damping, 1.0, DEFAULT_JOINT_DAMPING, limits);
-
-        let mut krl = desired.krl;
-        for v in &mut krl.real {
-            if !(*v as f32).is_finite() {
-                *v = 0.0;
-                limits.non_finite_desired += 1;
-            }
-        }
-        krl.fill = 0;
-        self.request.write_to(&mut krl);
-
-        Command {
-            header: Default::default(),
-            krl,
-            cmd_flags,
-            jnt_pos,
-            // Cartesian fields are not commanded by this session; keep them valid and neutral.
-            cart_pos: msr.data.msr_cart_pos,
-            add_jnt_trq,
-            add_tcp_ft: [0.0; 6],
-            jnt_stiffness,
-            jnt_damping,
-            cart_stiffness: [1000.0, 1000.0, 1000.0, 100.0, 100.0, 100.0],
-            cart_damping: [0.7; 6],
-        }
     }
 
     /// Writes a new handshake request (new id) into every following reply. A start also
@@ -499,6 +423,101 @@ impl Session {
             response_time: self.response_time.figures(),
         };
         s
+    }
+}
+
+/// The command for `msr`, with every rule applied (header counters filled by the caller).
+#[allow(clippy::too_many_arguments)]
+fn build(
+    config: &SessionConfig,
+    limits: &mut LimitCounters,
+    frozen_flags: &mut Option<CommandFlags>,
+    previous: Option<&Command>,
+    selected_strategy: KrlStrategy,
+    request: &HandshakeRequest,
+    msr: &Measurement,
+    desired: &DesiredCommand,
+) -> Command {
+    let commanding = Session::commanding(msr);
+
+    // Command flags: selected strategy in monitor mode, frozen in command mode.
+    let wanted_flags = selected_strategy.command_flags();
+    let cmd_flags = if msr.interface.state == InterfaceState::Command {
+        let frozen = *frozen_flags.get_or_insert(match previous {
+            Some(p) => p.cmd_flags,
+            // Joined while already in command mode: keep what the controller runs.
+            None => msr.robot.control.command_flags(),
+        });
+        if frozen != wanted_flags {
+            limits.flag_changes_blocked += 1;
+        }
+        frozen
+    } else {
+        *frozen_flags = None;
+        wanted_flags
+    };
+
+    let mirrored = msr.mirrored_joint_position();
+    let (jnt_pos, add_jnt_trq) = if commanding {
+        // Step limits start from the previous reply; at entry that is the mirrored set-point.
+        let base_pos = previous.map_or(mirrored, |p| p.jnt_pos);
+        let base_trq = previous.map_or([0.0; JOINTS], |p| p.add_jnt_trq);
+        let target = desired.joint_position.unwrap_or(base_pos);
+        let pos = limit_steps(
+            &base_pos,
+            &target,
+            config.max_joint_step,
+            &mut limits.joint_steps_clamped,
+            &mut limits.non_finite_desired,
+        );
+        let trq = limit_steps(
+            &base_trq,
+            &desired.added_torque,
+            config.max_added_torque_step,
+            &mut limits.added_torque_steps_clamped,
+            &mut limits.non_finite_desired,
+        );
+        (pos, trq)
+    } else {
+        let overridden = desired.joint_position.is_some_and(|q| q != mirrored)
+            || desired.added_torque.iter().any(|t| *t != 0.0);
+        if overridden {
+            limits.mirrored_overrides += 1;
+        }
+        (mirrored, [0.0; JOINTS])
+    };
+
+    let jnt_stiffness = clamp_gains(
+        &desired.joint_stiffness,
+        config.max_joint_stiffness,
+        DEFAULT_JOINT_STIFFNESS,
+        limits,
+    );
+    let jnt_damping = clamp_gains(&desired.joint_damping, 1.0, DEFAULT_JOINT_DAMPING, limits);
+
+    let mut krl = desired.krl;
+    for v in &mut krl.real {
+        if !(*v as f32).is_finite() {
+            *v = 0.0;
+            limits.non_finite_desired += 1;
+        }
+    }
+    krl.fill = 0;
+    request.write_to(&mut krl);
+
+    Command {
+        header: Default::default(),
+        krl,
+        cmd_flags,
+        jnt_pos,
+        // Cartesian fields are not commanded by this session; keep them valid and neutral.
+        cart_pos: msr.data.msr_cart_pos,
+        add_jnt_trq,
+        add_tcp_ft: [0.0; 6],
+        jnt_stiffness,
+        jnt_damping,
+        cart_stiffness: [1000.0, 1000.0, 1000.0, 100.0, 100.0, 100.0],
+        cart_damping: [0.7; 6],
     }
 }
 

@@ -35,18 +35,33 @@ pub(crate) fn write_f32(b: &mut [u8], f: Field, v: f32) {
     write_f32_at(b, f.start, v);
 }
 
+/// Decodes consecutive little-endian 4-byte values from `s` (one bounds check for the whole
+/// field instead of one per element; the loop then vectorises).
+fn decode_words<const N: usize, V: Copy + Default>(s: &[u8], decode: fn([u8; 4]) -> V) -> [V; N] {
+    let mut out = [V::default(); N];
+    for (o, c) in out.iter_mut().zip(s[..4 * N].chunks_exact(4)) {
+        *o = decode([c[0], c[1], c[2], c[3]]);
+    }
+    out
+}
+
 pub(crate) fn read_f32s<const N: usize>(b: &[u8], f: Field) -> [f32; N] {
-    core::array::from_fn(|i| read_f32_at(b, f.start + 4 * i))
+    decode_words(&b[f.start..f.start + 4 * N], f32::from_le_bytes)
 }
 
 pub(crate) fn write_f32s<const N: usize>(b: &mut [u8], f: Field, v: &[f32; N]) {
-    for (i, x) in v.iter().enumerate() {
-        write_f32_at(b, f.start + 4 * i, *x);
+    for (c, x) in b[f.start..f.start + 4 * N].chunks_exact_mut(4).zip(v) {
+        c.copy_from_slice(&x.to_le_bytes());
     }
 }
 
 pub(crate) fn read_f32_rows<const R: usize, const C: usize>(b: &[u8], f: Field) -> [[f32; C]; R] {
-    core::array::from_fn(|r| core::array::from_fn(|c| read_f32_at(b, f.start + 4 * (r * C + c))))
+    let flat = &b[f.start..f.start + 4 * R * C];
+    let mut out = [[0.0f32; C]; R];
+    for (row, bytes) in out.iter_mut().zip(flat.chunks_exact(4 * C)) {
+        *row = decode_words(bytes, f32::from_le_bytes);
+    }
+    out
 }
 
 pub(crate) fn write_f32_rows<const R: usize, const C: usize>(
@@ -54,24 +69,19 @@ pub(crate) fn write_f32_rows<const R: usize, const C: usize>(
     f: Field,
     v: &[[f32; C]; R],
 ) {
-    for (r, row) in v.iter().enumerate() {
-        for (c, x) in row.iter().enumerate() {
-            write_f32_at(b, f.start + 4 * (r * C + c), *x);
-        }
+    let flat = &mut b[f.start..f.start + 4 * R * C];
+    for (c, x) in flat.chunks_exact_mut(4).zip(v.iter().flatten()) {
+        c.copy_from_slice(&x.to_le_bytes());
     }
 }
 
 pub(crate) fn read_i32s<const N: usize>(b: &[u8], f: Field) -> [i32; N] {
-    core::array::from_fn(|i| {
-        let o = f.start + 4 * i;
-        i32::from_le_bytes([b[o], b[o + 1], b[o + 2], b[o + 3]])
-    })
+    decode_words(&b[f.start..f.start + 4 * N], i32::from_le_bytes)
 }
 
 pub(crate) fn write_i32s<const N: usize>(b: &mut [u8], f: Field, v: &[i32; N]) {
-    for (i, x) in v.iter().enumerate() {
-        let o = f.start + 4 * i;
-        b[o..o + 4].copy_from_slice(&x.to_le_bytes());
+    for (c, x) in b[f.start..f.start + 4 * N].chunks_exact_mut(4).zip(v) {
+        c.copy_from_slice(&x.to_le_bytes());
     }
 }
 
@@ -80,13 +90,18 @@ pub(crate) fn first_non_finite(
     b: &[u8],
     fields: &[(&'static str, Field)],
 ) -> Option<(&'static str, usize)> {
+    const EXPONENT: u32 = 0x7F80_0000;
+    let is_non_finite =
+        |c: &[u8]| u32::from_le_bytes([c[0], c[1], c[2], c[3]]) & EXPONENT == EXPONENT;
     for (name, f) in fields {
-        let mut off = f.start;
-        while off < f.end {
-            if !read_f32_at(b, off).is_finite() {
-                return Some((name, (off - f.start) / 4));
-            }
-            off += 4;
+        // All exponent bits set means NaN or ±infinity. A branch-free pass (vectorised) finds
+        // out whether the field is clean; only a bad field is searched for the element.
+        let field = &b[f.clone()];
+        let any = field
+            .chunks_exact(4)
+            .fold(false, |acc, c| acc | is_non_finite(c));
+        if any && let Some(index) = field.chunks_exact(4).position(is_non_finite) {
+            return Some((name, index));
         }
     }
     None

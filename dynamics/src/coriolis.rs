@@ -5,9 +5,8 @@ use nalgebra::{Matrix3, Matrix6, SMatrix, SVector, Vector6};
 
 use crate::data::Data;
 use crate::inertia::skew;
-use crate::kinematics::update_world_poses;
+use crate::kinematics::{update_link_poses, update_world_poses};
 use crate::model::Model;
-use crate::rnea::forward_pass;
 use crate::spatial::{Motion, Pose};
 
 fn to_vector6(m: &Motion) -> Vector6<f64> {
@@ -125,11 +124,16 @@ pub fn coriolis_transpose_times_velocity<const N: usize>(
     q: &SVector<f64, N>,
     qd: &SVector<f64, N>,
 ) -> SVector<f64, N> {
-    let zero = SVector::<f64, N>::zeros();
-    // Reuses the RNEA forward pass for link velocities (its accelerations are not needed).
-    forward_pass(model, data, q, qd, &zero);
+    // Velocity-only forward pass; link momenta h_i = I_i v_i.
+    update_link_poses(model, data, q);
+    let mut v_parent = Motion::ZERO;
     for i in 0..N {
-        data.force[i] = model.links()[i].apply(&data.velocity[i]);
+        let v = data.link_in_parent[i]
+            .motion_to_child(&v_parent)
+            .add(&model.joints()[i].motion_subspace().scale(qd[i]));
+        data.velocity[i] = v;
+        data.force[i] = model.links()[i].apply(&v);
+        v_parent = v;
     }
     let mut out = SVector::<f64, N>::zeros();
     for i in (0..N).rev() {

@@ -90,3 +90,55 @@ fn planar_2r_has_6_base_coefficients() {
         assert!((value - tau[row]).abs() < 1e-10);
     }
 }
+
+/// The paper's symbolic coefficients (eq. 29) as a 6 × 20 map of the link parameters; they span the
+/// same space as the numerical base set, and evaluate to the printed values.
+#[test]
+fn planar_2r_numerical_base_spans_the_papers_eq29_coefficients() {
+    let (a1, a2) = (1.0, 0.5);
+    let mut p_map = nalgebra::DMatrix::<f64>::zeros(6, 20);
+    // Columns: link 1 = 0..10, link 2 = 10..20, each (m, mcx, mcy, mcz, Jxx, Jxy, Jxz, Jyy, Jyz, Jzz).
+    p_map[(0, 10)] = 0.5 * a2 * a2;
+    p_map[(0, 19)] = 0.5;
+    p_map[(0, 11)] = a2;
+    p_map[(1, 11)] = 1.0;
+    p_map[(1, 10)] = a2;
+    p_map[(2, 12)] = 1.0;
+    p_map[(3, 9)] = 0.5;
+    p_map[(3, 0)] = 0.5 * a1 * a1;
+    p_map[(3, 10)] = 0.5 * a1 * a1;
+    p_map[(3, 1)] = a1;
+    p_map[(4, 1)] = 1.0;
+    p_map[(4, 0)] = a1;
+    p_map[(4, 10)] = a1;
+    p_map[(5, 2)] = 1.0;
+
+    let model = planar_2r();
+    let base = base_parameters(&model, RegressorKind::Full, 40, 5);
+    let mut stacked = nalgebra::DMatrix::<f64>::zeros(12, 20);
+    stacked.view_mut((0, 0), (6, 20)).copy_from(&base.map);
+    stacked.view_mut((6, 0), (6, 20)).copy_from(&p_map);
+    let singular = stacked.singular_values();
+    let rank = singular.iter().filter(|s| **s > 1e-9 * singular[0]).count();
+    assert_eq!(rank, 6, "singular values {singular}");
+
+    let params = |m: &dynamics::Model<2>| {
+        DVector::from_iterator(
+            20,
+            m.links()
+                .iter()
+                .flat_map(|l| l.to_vector().iter().copied().collect::<Vec<_>>()),
+        )
+    };
+    let pi = &p_map * params(&model);
+    let printed = [0.11125, 0.6, 0.04, 1.36515, 3.2, 0.03];
+    for (got, want) in pi.iter().zip(printed) {
+        assert!((got - want).abs() < 1e-12, "{pi}");
+    }
+    let loaded = model.with_payload(&dynamics::planar_2r_payload());
+    let pi = &p_map * params(&loaded);
+    let printed = [0.6144, 1.8, 0.19, 2.11515, 4.7, 0.03];
+    for (got, want) in pi.iter().zip(printed) {
+        assert!((got - want).abs() < 1e-12, "{pi}");
+    }
+}

@@ -87,6 +87,10 @@ proptest! {
         let fast = coriolis_transpose_times_velocity(&model, &mut data, &q, &qd);
         let christoffel = coriolis_matrix(&model, &mut data, &q, &qd).transpose() * qd;
         prop_assert!(rel_err(&fast, &christoffel) < 1e-12, "fast {} vs Christoffel {}", fast, christoffel);
+        // Third route: Cᵀq̇ = Ṁq̇ − Cq̇ with Cq̇ from the RNEA (h − g).
+        let mdot = mass_matrix_time_derivative(&model, &mut data, &q, &qd);
+        let c_qd = nonlinear_effects(&model, &mut data, &q, &qd) - compute_generalized_gravity(&model, &mut data, &q);
+        prop_assert!(rel_err(&fast, &(mdot * qd - c_qd)) < 1e-12);
         // ∂(½ q̇ᵀ M q̇)/∂q by central differences.
         let h = 1e-6;
         let gradient = SVector::<f64, 7>::from_fn(|i, _| {

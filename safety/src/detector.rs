@@ -61,10 +61,16 @@ pub struct DetectorConfig<const N: usize> {
     pub debounce_samples: u32,
     /// Consecutive samples below the release level before a contact ends (≥ 1).
     pub release_samples: u32,
+    /// Isolation level as a fraction of θ, in (0, 1]: once a contact is detected, the isolated
+    /// link is the most distal joint with |r_j| > isolation_ratio·θ_j. With 1.0 this is the
+    /// textbook rule; lower values isolate earlier, because at the onset the residual has only
+    /// risen part of the way (all joints rise together through K/(s + K)).
+    pub isolation_ratio: f64,
 }
 
 impl<const N: usize> Default for DetectorConfig<N> {
-    /// 6 Nm static thresholds, release at 80 % of θ, debounce 2 samples, release after 20.
+    /// 6 Nm static thresholds, release at 80 % of θ, debounce 2 samples, release after 20,
+    /// isolation at 50 % of θ.
     fn default() -> Self {
         Self {
             thresholds_nm: SVector::repeat(DEFAULT_THRESHOLD_NM),
@@ -72,6 +78,7 @@ impl<const N: usize> Default for DetectorConfig<N> {
             release_ratio: 0.8,
             debounce_samples: 2,
             release_samples: 20,
+            isolation_ratio: 0.5,
         }
     }
 }
@@ -86,7 +93,9 @@ impl<const N: usize> DetectorConfig<N> {
                 return Err(ConfigError::Threshold { joint: j });
             }
         }
-        if !(self.release_ratio > 0.0 && self.release_ratio <= 1.0)
+        let in_unit_interval = |x: f64| x > 0.0 && x <= 1.0;
+        if !in_unit_interval(self.release_ratio)
+            || !in_unit_interval(self.isolation_ratio)
             || self.debounce_samples == 0
             || self.release_samples == 0
         {
@@ -114,7 +123,8 @@ pub struct CollisionEvent<const N: usize> {
     pub residual: SVector<f64, N>,
     /// Effective thresholds at the onset [Nm].
     pub thresholds: SVector<f64, N>,
-    /// Isolated link, 0-based (link i moves with joint i): the most distal joint over threshold.
+    /// Isolated link, 0-based (link i moves with joint i): the most distal joint with
+    /// |r_j| > isolation_ratio·θ_j at the onset.
     pub isolated_link: usize,
     /// Estimated contact wrench (F [N]; moment [Nm] about the contact point), base frame, for
     /// contacts isolated on the last link; filled by [`crate::monitor::CollisionMonitor`].
@@ -132,10 +142,15 @@ pub enum Detection<const N: usize> {
     Onset(CollisionEvent<N>),
     /// Contact continues.
     InContact,
-    /// Contact ended at this sample; `duration_s` since the onset [s].
+    /// Contact ended at this sample.
     Released {
-        /// Contact duration [s].
+        /// Contact duration since the onset [s].
         duration_s: f64,
+        /// Most distal link isolated at any sample of the contact (0-based), a refinement of
+        /// the onset's `isolated_link`.
+        episode_link: usize,
+        /// Peak |r_j| per joint over the contact [Nm].
+        peak_residual: SVector<f64, N>,
     },
 }
 
@@ -148,6 +163,8 @@ pub struct CollisionDetector<const N: usize> {
     in_contact: bool,
     onset_time_s: f64,
     events: u64,
+    episode_link: usize,
+    peak_residual: SVector<f64, N>,
 }
 
 impl<const N: usize> CollisionDetector<N> {
@@ -161,6 +178,8 @@ impl<const N: usize> CollisionDetector<N> {
             in_contact: false,
             onset_time_s: 0.0,
             events: 0,
+            episode_link: 0,
+            peak_residual: SVector::zeros(),
         })
     }
 
@@ -202,6 +221,13 @@ impl<const N: usize> CollisionDetector<N> {
         (over, thresholds)
     }
 
+    /// Most distal joint with |r_j| > isolation_ratio·θ_j, 0-based.
+    fn isolate(&self, residual: &SVector<f64, N>, thresholds: &SVector<f64, N>) -> Option<usize> {
+        (0..N)
+            .rev()
+            .find(|&j| residual[j].abs() > self.config.isolation_ratio * thresholds[j])
+    }
+
     /// Processes one updated residual `residual` [Nm] at velocity `qd` [rad/s], observer
     /// cycle `cycle` and time `time_s` [s].
     pub fn update(
@@ -213,6 +239,10 @@ impl<const N: usize> CollisionDetector<N> {
     ) -> Detection<N> {
         let (over, thresholds) = self.joints_over(residual, qd);
         if self.in_contact {
+            if let Some(link) = self.isolate(residual, &thresholds) {
+                self.episode_link = self.episode_link.max(link);
+            }
+            self.peak_residual = self.peak_residual.sup(&residual.abs());
             let released =
                 (0..N).all(|j| residual[j].abs() < self.config.release_ratio * thresholds[j]);
             self.below_count = if released { self.below_count + 1 } else { 0 };
@@ -222,6 +252,8 @@ impl<const N: usize> CollisionDetector<N> {
                 self.over_count = 0;
                 return Detection::Released {
                     duration_s: time_s - self.onset_time_s,
+                    episode_link: self.episode_link,
+                    peak_residual: self.peak_residual,
                 };
             }
             return Detection::InContact;
@@ -238,13 +270,19 @@ impl<const N: usize> CollisionDetector<N> {
         self.below_count = 0;
         self.onset_time_s = time_s;
         self.events += 1;
+        let isolated_link = self
+            .isolate(residual, &thresholds)
+            .or(over.most_distal())
+            .unwrap_or(0);
+        self.episode_link = isolated_link;
+        self.peak_residual = residual.abs();
         Detection::Onset(CollisionEvent {
             cycle,
             time_s,
             joints_over: over,
             residual: *residual,
             thresholds,
-            isolated_link: over.most_distal().unwrap_or(0),
+            isolated_link,
             contact_wrench: None,
         })
     }
@@ -262,6 +300,7 @@ mod tests {
             release_ratio: 0.5,
             debounce_samples: debounce,
             release_samples: release,
+            isolation_ratio: 1.0,
         })
         .unwrap()
     }
@@ -296,12 +335,17 @@ mod tests {
             d.update(&Vector3::new(2.0, 0.0, 0.5), &v0, 6, 0.006),
             Detection::InContact
         );
-        let Detection::Released { duration_s } =
-            d.update(&Vector3::new(2.0, 0.0, 0.5), &v0, 7, 0.007)
+        let Detection::Released {
+            duration_s,
+            episode_link,
+            peak_residual,
+        } = d.update(&Vector3::new(2.0, 0.0, 0.5), &v0, 7, 0.007)
         else {
             panic!("no release")
         };
         assert!((duration_s - 0.003).abs() < 1e-12);
+        assert_eq!(episode_link, 2);
+        assert_eq!(peak_residual, Vector3::new(7.0, 0.0, 2.5));
         assert_eq!(d.event_count(), 1);
     }
 

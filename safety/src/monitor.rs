@@ -1,7 +1,7 @@
 //! The complete per-cycle pipeline: observer → detector → isolation/identification → reaction.
 
 use dynamics::Data;
-use nalgebra::Vector3;
+use nalgebra::{SVector, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
 use crate::config::ObserverConfig;
@@ -111,6 +111,23 @@ impl<const N: usize> CollisionMonitor<N> {
     /// Operator acknowledgement (resume after a stop or an operator hold).
     pub fn acknowledge(&mut self) {
         self.supervisor.acknowledge();
+    }
+
+    /// Damped least-squares contact wrench (F [N]; moment about the contact point [Nm], base
+    /// frame) for a contact on the last link at the configured contact point, from the current
+    /// residual at configuration `q` [rad]. Meaningful once the residual has converged
+    /// (t > 5/K_I after the contact started). `None` if the damped system is singular.
+    pub fn last_link_wrench(&mut self, q: &SVector<f64, N>) -> Option<Vector6<f64>> {
+        let residual = *self.observer.residual();
+        estimate_contact_wrench(
+            self.observer.model(),
+            &mut self.wrench_data,
+            q,
+            &residual,
+            N - 1,
+            &self.contact_point,
+            self.wrench_damping,
+        )
     }
 
     /// Processes one sample.

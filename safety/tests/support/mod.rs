@@ -216,11 +216,15 @@ pub struct Impedance {
 }
 
 impl Impedance {
-    /// Stiffness [Nm/rad] per joint; damping for ratio `zeta` against the diagonal of the
-    /// plant's mass matrix at `q0`.
+    /// Stiffness [Nm/rad] per joint; damping for ratio `zeta` against the effective joint
+    /// inertias 1/(M⁻¹)_jj of the plant at `q0` (the diagonal of M overestimates them for coupled
+    /// joints and would make the damping too stiff for the sampled loop).
     pub fn new(model: Model<7>, stiffness: V7, plant: &Model<7>, q0: &V7, zeta: f64) -> Self {
         let mut data = Data::new(plant);
-        let inertia_diag = crba(plant, &mut data, q0).diagonal();
+        let inverse = crba(plant, &mut data, q0)
+            .try_inverse()
+            .expect("invertible mass matrix");
+        let inertia_diag = inverse.diagonal().map(|x| 1.0 / x);
         let damping = V7::from_fn(|j, _| 2.0 * zeta * (stiffness[j] * inertia_diag[j]).sqrt());
         Self {
             model,
@@ -302,6 +306,43 @@ impl Plant {
         let ext = self.external_torque(t, q, contacts, extra);
         forward_dynamics(&self.model, &mut self.data, q, qd, &(tau + ext))
             .expect("forward dynamics")
+    }
+
+    /// Lets the arm settle for `seconds` under the controller holding `q_hold` (an undeclared
+    /// payload makes it sag first), then restarts the clock at zero with zero velocity.
+    pub fn settle(&mut self, controller: &mut Impedance, q_hold: &V7, seconds: f64) {
+        let hold = Hold(*q_hold);
+        let ticks = (seconds / 1e-3) as usize;
+        for _ in 0..ticks {
+            self.advance_controlled(controller, &hold, 1e-3, 5, &[], &V7::zeros());
+        }
+        self.t = 0.0;
+        self.qd = V7::zeros();
+    }
+
+    /// Advances by `period` in `substeps` steps with the controller closing the loop at every
+    /// substep (the LWR's joint controller runs faster than FRI); returns nothing: the caller
+    /// samples the torque at the next tick.
+    pub fn advance_controlled(
+        &mut self,
+        controller: &mut Impedance,
+        trajectory: &dyn Trajectory,
+        period: f64,
+        substeps: usize,
+        contacts: &[Contact],
+        extra: &V7,
+    ) {
+        let h = period / substeps as f64;
+        for _ in 0..substeps {
+            let desired = trajectory.sample(self.t);
+            let (q, v) = (self.q, self.qd);
+            let tau = controller.torque(&q, &v, &desired);
+            let a = self.acceleration(self.t, &q, &v, &tau, contacts, extra);
+            self.qd += a * h;
+            self.q += self.qd * h;
+            self.qdd = a;
+            self.t += h;
+        }
     }
 
     /// Advances by `period` with torque `tau` held, in `substeps` integration steps.

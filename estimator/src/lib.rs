@@ -18,6 +18,7 @@ pub mod estimate;
 pub mod expr;
 pub mod filter;
 pub mod lsq;
+pub mod motion;
 pub mod poses;
 pub mod samples;
 pub mod sim;

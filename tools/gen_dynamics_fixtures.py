@@ -102,6 +102,86 @@ def build_model_b(links):
     return model
 
 
+def rot_z(a):
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+def generic_robot(rng):
+    """A 5-joint arm exercising what the LWR does not: a_i != 0, theta offsets, prismatic joints
+    and a tilted gravity vector. Classical DH rows, random physically consistent links."""
+    rows = [
+        {"type": "revolute", "a": 0.1, "alpha": HALF_PI, "d": 0.3, "theta": 0.2},
+        {"type": "prismatic", "a": 0.05, "alpha": -HALF_PI, "d": 0.1, "theta": -0.4},
+        {"type": "revolute", "a": 0.35, "alpha": 0.3, "d": -0.02, "theta": 0.0},
+        {"type": "revolute", "a": 0.0, "alpha": -1.1, "d": 0.2, "theta": 1.0},
+        {"type": "prismatic", "a": 0.02, "alpha": 0.0, "d": 0.05, "theta": 0.5},
+    ]
+    links = []
+    for _ in rows:
+        mass = rng.uniform(0.5, 4.0)
+        com = rng.uniform(-0.15, 0.15, 3)
+        moments = rng.uniform(0.005, 0.05, 3)
+        moments[2] = min(moments[2], moments[0] + moments[1] - 1e-4)
+        q_rand, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        inertia = q_rand @ np.diag(moments) @ q_rand.T
+        links.append({"m": mass, "c": com.tolist(),
+                      "I_com": [inertia[0, 0], inertia[1, 1], inertia[2, 2],
+                                inertia[0, 1], inertia[0, 2], inertia[1, 2]]})
+    gravity = np.array([0.8, -1.3, -9.6])
+    flange = pin.SE3(rot_x(0.3) @ rot_z(-0.7), np.array([0.01, -0.02, 0.1]))
+
+    model = pin.Model()
+    model.gravity = pin.Motion(np.concatenate([gravity, np.zeros(3)]))
+    parent = 0
+    previous_tail = pin.SE3.Identity()
+    for row, link in zip(rows, links):
+        head = pin.SE3(rot_z(row["theta"]), np.zeros(3))
+        if row["type"] == "revolute":
+            placement = previous_tail * head
+            joint = pin.JointModelRZ()
+            tail = pin.SE3(np.eye(3), np.array([0, 0, row["d"]])) * \
+                pin.SE3(rot_x(row["alpha"]), np.array([row["a"], 0, 0]))
+        else:
+            placement = previous_tail * head * pin.SE3(np.eye(3), np.array([0, 0, row["d"]]))
+            joint = pin.JointModelPZ()
+            tail = pin.SE3(rot_x(row["alpha"]), np.array([row["a"], 0, 0]))
+        parent = model.addJoint(parent, joint, placement, f"joint{parent + 1}")
+        xx, yy, zz, xy, xz, yz = link["I_com"]
+        inertia = pin.Inertia(link["m"], np.array(link["c"]),
+                              np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]]))
+        # The link lives in DH frame i = joint frame * tail.
+        model.appendBodyToJoint(parent, inertia, tail)
+        previous_tail = tail
+    model.addFrame(pin.Frame("flange", parent, 0, previous_tail * flange, pin.FrameType.OP_FRAME))
+    data = model.createData()
+    flange_id = model.getFrameId("flange")
+    states = []
+    for _ in range(20):
+        q = rng.uniform(-1.5, 1.5, model.nq)
+        qd = rng.uniform(-1.5, 1.5, model.nv)
+        qdd = rng.uniform(-3, 3, model.nv)
+        mass = pin.crba(model, data, q)
+        mass = np.triu(mass) + np.triu(mass, 1).T
+        pin.forwardKinematics(model, data, q)
+        pin.updateFramePlacements(model, data)
+        states.append({
+            "q": q.tolist(), "qd": qd.tolist(), "qdd": qdd.tolist(),
+            "M": mass.tolist(),
+            "g": pin.computeGeneralizedGravity(model, data, q).tolist(),
+            "tau": pin.rnea(model, data, q, qd, qdd).tolist(),
+            "flange_pose": data.oMf[flange_id].homogeneous.tolist(),
+        })
+    return {
+        "dh": rows,
+        "links": links,
+        "gravity": gravity.tolist(),
+        "flange": {"translation": flange.translation.tolist(),
+                   "rotation": flange.rotation.tolist()},
+        "states": states,
+    }
+
+
 def main():
     out_path = sys.argv[1] if len(sys.argv) > 1 else DEFAULT_OUT
     links = load_links()
@@ -192,6 +272,7 @@ def main():
         "seed": SEED,
         "gravity": [0.0, 0.0, -G0],
         "states": states,
+        "generic_5dof": generic_robot(np.random.default_rng(SEED + 1)),
     }
     with open(out_path, "w") as f:
         json.dump(fixture, f, indent=None, separators=(",", ":"))

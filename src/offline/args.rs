@@ -133,13 +133,15 @@ pub struct CalibrateArgs {
 /// `fri-ctl offline estimate-motion`.
 #[derive(Debug, Clone, Args)]
 pub struct MotionArgs {
-    /// Loaded trajectory log, CSV with header t,q1..qn,tau1..taun (s, rad, Nm); extra columns ignored.
+    /// Loaded trajectory log, CSV with header t,q1..qn,tau1..taun (s, rad, Nm); extra columns
+    /// ignored. Repeat for several trajectories (e.g. the paper's q_A, q_B, q_C).
+    #[arg(long, required = true)]
+    pub log: Vec<PathBuf>,
+    /// Unloaded run of the same trajectory (tare), one per --log in the same order; without it the
+    /// robot model supplies the unloaded torques M(q)q̈ + C(q,q̇)q̇ + g(q).
     #[arg(long)]
-    pub log: PathBuf,
-    /// Unloaded run of the same trajectory (tare); without it the robot model supplies the unloaded torques.
-    #[arg(long)]
-    pub tare_log: Option<PathBuf>,
-    /// Loaded static samples to stack with the motion equations (eq. 45).
+    pub tare_log: Vec<PathBuf>,
+    /// Loaded static samples to stack with the motion equations (eq. 45), CSV as for `estimate`.
     #[arg(long)]
     pub static_samples: Option<PathBuf>,
     /// Robot model: lwr4, planar-2r, or a robot TOML file.
@@ -151,9 +153,12 @@ pub struct MotionArgs {
     /// Butterworth order.
     #[arg(long, default_value_t = 4)]
     pub order: usize,
-    /// Number of samples kept after filtering (decimation).
+    /// Number of samples kept after filtering (decimation), over all logs.
     #[arg(long, default_value_t = 500)]
     pub keep: usize,
+    /// Seconds dropped at both ends of each log (filter edges); default 3/cutoff.
+    #[arg(long)]
+    pub trim_s: Option<f64>,
     /// Print one JSON object instead of the report.
     #[arg(long)]
     pub json: bool,

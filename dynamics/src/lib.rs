@@ -10,6 +10,20 @@
 //! the linear part first (rows v; ω).
 //!
 //! All algorithms for fixed N are allocation-free (proved by `tests/allocations.rs`).
+//!
+//! ```
+//! use dynamics::{Data, compute_generalized_gravity, crba, lwr4, lwr4_heavy_payload, rnea};
+//! use nalgebra::SVector;
+//!
+//! let model = lwr4().with_payload(&lwr4_heavy_payload());
+//! let mut data = Data::new(&model);
+//! let q = SVector::<f64, 7>::from([0.3, std::f64::consts::FRAC_PI_2, 0.0, 0.0, 0.0, 0.0, 0.0]);
+//! let g = compute_generalized_gravity(&model, &mut data, &q);
+//! assert!((g[1] - (-47.2782 - 27.0016)).abs() < 1e-3); // lwr4-model.md §3, configuration qA
+//! let m = crba(&model, &mut data, &q);
+//! let tau = rnea(&model, &mut data, &q, &SVector::zeros(), &SVector::repeat(1.0));
+//! assert!((tau - (m * SVector::<f64, 7>::repeat(1.0) + g)).norm() < 1e-9);
+//! ```
 
 mod base_parameters;
 mod coriolis;
@@ -46,7 +60,9 @@ pub use model::{JointLimits, Model};
 pub use regressor::{
     gravity_regressor, joint_torque_regressor, payload_gravity_regressor, payload_regressor,
 };
-pub use rnea::{compute_generalized_gravity, nonlinear_effects, rnea};
+pub use rnea::{
+    compute_generalized_gravity, coriolis_centrifugal_torques, nonlinear_effects, rnea,
+};
 pub use robot_file::{JointSpec, LimitsSpec, LinkSpec, PoseSpec, RobotFile};
 pub use robots::{
     LWR_BASE_TO_SHOULDER, LWR_FLANGE_OFFSET, STANDARD_GRAVITY, inertia_tensor, lwr4,

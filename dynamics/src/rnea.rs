@@ -17,11 +17,25 @@ pub(crate) fn forward_pass<const N: usize>(
     qd: &SVector<f64, N>,
     qdd: &SVector<f64, N>,
 ) {
+    forward_pass_with_base_acceleration(model, data, q, qd, qdd, &-model.gravity());
+}
+
+/// RNEA forward pass with an arbitrary linear base acceleration (m/s², base frame); −g models
+/// gravity, zero leaves it out.
+#[inline]
+fn forward_pass_with_base_acceleration<const N: usize>(
+    model: &Model<N>,
+    data: &mut Data<N>,
+    q: &SVector<f64, N>,
+    qd: &SVector<f64, N>,
+    qdd: &SVector<f64, N>,
+    base_acceleration: &nalgebra::Vector3<f64>,
+) {
     update_link_poses(model, data, q);
     let mut v_parent = Motion::ZERO;
     let mut a_parent = Motion {
         ang: nalgebra::Vector3::zeros(),
-        lin: -model.gravity(),
+        lin: *base_acceleration,
     };
     for i in 0..N {
         let pose = &data.link_in_parent[i];
@@ -49,6 +63,15 @@ pub fn rnea<const N: usize>(
     qdd: &SVector<f64, N>,
 ) -> SVector<f64, N> {
     forward_pass(model, data, q, qd, qdd);
+    link_forces_and_project(model, data)
+}
+
+/// f_i = I_i a_i + v_i ×* I_i v_i for every link, then τ = Sᵀf accumulated tip to base.
+#[inline]
+fn link_forces_and_project<const N: usize>(
+    model: &Model<N>,
+    data: &mut Data<N>,
+) -> SVector<f64, N> {
     for i in 0..N {
         let inertia = &model.links()[i];
         let v = &data.velocity[i];
@@ -102,4 +125,16 @@ pub fn nonlinear_effects<const N: usize>(
     qd: &SVector<f64, N>,
 ) -> SVector<f64, N> {
     rnea(model, data, q, qd, &SVector::zeros())
+}
+
+/// Coriolis and centrifugal torques C(q, q̇)q̇ alone (no gravity), Nm.
+pub fn coriolis_centrifugal_torques<const N: usize>(
+    model: &Model<N>,
+    data: &mut Data<N>,
+    q: &SVector<f64, N>,
+    qd: &SVector<f64, N>,
+) -> SVector<f64, N> {
+    let zero = SVector::<f64, N>::zeros();
+    forward_pass_with_base_acceleration(model, data, q, qd, &zero, &nalgebra::Vector3::zeros());
+    link_forces_and_project(model, data)
 }

@@ -43,6 +43,12 @@ fn hot_paths_do_not_allocate() {
         }),
     );
     check(
+        "coriolis_centrifugal_torques",
+        alloc_counter::count_allocations(|| {
+            sink += dynamics::coriolis_centrifugal_torques(&model, &mut data, &q, &qd)[1]
+        }),
+    );
+    check(
         "coriolis_transpose_times_velocity",
         alloc_counter::count_allocations(|| {
             sink += coriolis_transpose_times_velocity(&model, &mut data, &q, &qd)[1]

@@ -5,8 +5,8 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 use dynamics::{
-    Data, InertialParameters, Model, compute_generalized_gravity, coriolis_matrix,
-    coriolis_transpose_times_velocity, crba, forward_dynamics, forward_kinematics,
+    Data, InertialParameters, Model, compute_generalized_gravity, coriolis_centrifugal_torques,
+    coriolis_matrix, coriolis_transpose_times_velocity, crba, forward_dynamics, forward_kinematics,
     gravity_regressor, joint_torque_regressor, lwr4, lwr4_modified_dh,
     mass_matrix_partial_derivatives, mass_matrix_time_derivative, nonlinear_effects,
     payload_gravity_regressor, payload_regressor, planar_2r, point_jacobian, rnea,
@@ -77,6 +77,8 @@ proptest! {
         prop_assert!(rel_err(&(m * qdd + c * qd + g), &tau) < 1e-12);
         let h = nonlinear_effects(&model, &mut data, &q, &qd);
         prop_assert!(rel_err(&(c * qd + g), &h) < 1e-12);
+        let cqd = coriolis_centrifugal_torques(&model, &mut data, &q, &qd);
+        prop_assert!((cqd - c * qd).abs().max() < 1e-12 * h.abs().max().max(1.0));
         prop_assert!(rel_err(&m, &m.transpose()) == 0.0);
     }
 

@@ -15,9 +15,12 @@ pub mod krl;
 pub mod models;
 pub mod motion;
 pub mod sensors;
+pub mod server;
 pub mod simulation;
 pub mod stats;
+pub mod truth;
 
 pub use config::SimulationConfig;
 pub use error::SimError;
+pub use server::{MockRobotHandle, RunSummary, ServerConfig, TimingMode, spawn};
 pub use simulation::{ContactState, ReceiveCounters, Simulation};

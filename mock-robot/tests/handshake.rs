@@ -98,7 +98,13 @@ fn request_manually(
 }
 
 /// Name, flags, requested strategy, expected reason, how to spoil the command.
-type RefusalCase = (&'static str, u32, i32, DropReason, fn(&mut fri::wire::Command));
+type RefusalCase = (
+    &'static str,
+    u32,
+    i32,
+    DropReason,
+    fn(&mut fri::wire::Command),
+);
 
 #[test]
 fn refused_starts_report_their_reason() {

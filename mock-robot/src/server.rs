@@ -1,0 +1,251 @@
+//! The simulated controller on a UDP socket: real-time (wall-clock paced) or lockstep timing.
+//!
+//! - Real time: measurement k leaves at t0 + k·T; answers arriving before t0 + (k+1)·T count,
+//!   with their measured round-trip latency; later ones are stale (missed).
+//! - Lockstep: the next cycle starts as soon as the answer to the current measurement arrives,
+//!   or after `answer_timeout` (counted as a miss). Latency counts as zero, so runs are
+//!   deterministic given the remote's answers, and faster than real time.
+//!
+//! As on the real controller, the simulation sends first and talks to one remote (`client`).
+
+use std::io::{BufWriter, ErrorKind};
+use std::net::{SocketAddr, UdpSocket};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use fri::wire::{Command, MSR_LEN};
+
+use crate::error::SimError;
+use crate::simulation::Simulation;
+use crate::truth::TruthLog;
+
+/// Default lockstep answer timeout.
+pub const DEFAULT_LOCKSTEP_TIMEOUT: Duration = Duration::from_millis(100);
+
+/// How cycles are paced.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TimingMode {
+    /// Wall-clock paced at the FRI cycle.
+    RealTime,
+    /// Next cycle when the answer arrives, or after the timeout (a miss).
+    Lockstep {
+        /// Longest wait for an answer.
+        answer_timeout: Duration,
+    },
+}
+
+/// Where and how to run the controller.
+#[derive(Debug, Clone)]
+pub struct ServerConfig {
+    /// Local address of the controller's socket (port 0 = any free port).
+    pub bind: SocketAddr,
+    /// The remote (FRI client) address measurements are sent to.
+    pub client: SocketAddr,
+    /// Pacing.
+    pub mode: TimingMode,
+    /// Stop after this many cycles (None = until the scenario ends or a stop request).
+    pub max_cycles: Option<u64>,
+    /// Ground-truth CSV file to write, if any.
+    pub truth_log: Option<PathBuf>,
+}
+
+/// What a run did.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RunSummary {
+    /// Cycles run.
+    pub cycles: u64,
+    /// Simulated time, s.
+    pub sim_time_s: f64,
+    /// Wall-clock time, s.
+    pub wall_time_s: f64,
+    /// Measurements that could not be sent (socket errors).
+    pub send_errors: u64,
+    /// Real time: cycles that started more than one cycle late.
+    pub late_cycles: u64,
+    /// Real time: largest lateness of a cycle start, s.
+    pub max_lateness_s: f64,
+    /// Real time: mean |actual − scheduled| send time, s.
+    pub mean_send_jitter_s: f64,
+}
+
+impl RunSummary {
+    /// Simulated time per wall-clock time.
+    pub fn speed_factor(&self) -> f64 {
+        if self.wall_time_s > 0.0 {
+            self.sim_time_s / self.wall_time_s
+        } else {
+            0.0
+        }
+    }
+}
+
+fn recv_until(socket: &UdpSocket, buf: &mut [u8], deadline: Instant) -> Option<(usize, Instant)> {
+    loop {
+        let now = Instant::now();
+        if now >= deadline {
+            return None;
+        }
+        let wait = (deadline - now).max(Duration::from_micros(1));
+        if socket.set_read_timeout(Some(wait)).is_err() {
+            return None;
+        }
+        match socket.recv_from(buf) {
+            Ok((n, _)) => return Some((n, Instant::now())),
+            Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {
+                return None;
+            }
+            // ICMP port unreachable from an earlier send (remote not up yet): keep waiting.
+            Err(e)
+                if e.kind() == ErrorKind::ConnectionRefused
+                    || e.kind() == ErrorKind::Interrupted =>
+            {
+                continue;
+            }
+            Err(_) => return None,
+        }
+    }
+}
+
+/// Runs `sim` on `socket` until the scenario ends, `stop` is set or `max_cycles` is reached.
+pub fn run(
+    sim: &mut Simulation,
+    socket: &UdpSocket,
+    config: &ServerConfig,
+    stop: &AtomicBool,
+) -> Result<RunSummary, SimError> {
+    let mut truth = match &config.truth_log {
+        Some(path) => Some(TruthLog::new(BufWriter::new(std::fs::File::create(path)?))?),
+        None => None,
+    };
+    let cycle = Duration::from_secs_f64(sim.cycle_s());
+    let mut summary = RunSummary::default();
+    let mut msr_bytes = [0u8; MSR_LEN];
+    let mut buf = [0u8; 2048];
+    let start = Instant::now();
+    let mut t0 = start;
+    let mut k: u32 = 0;
+    let mut jitter_sum = 0.0;
+    while !stop.load(Ordering::Relaxed)
+        && !sim.is_finished()
+        && config.max_cycles.is_none_or(|m| summary.cycles < m)
+    {
+        if let TimingMode::RealTime = config.mode {
+            let scheduled = t0 + cycle * k;
+            let now = Instant::now();
+            if now < scheduled {
+                std::thread::sleep(scheduled - now);
+            }
+            let lateness = Instant::now()
+                .saturating_duration_since(scheduled)
+                .as_secs_f64();
+            jitter_sum += lateness;
+            summary.max_lateness_s = summary.max_lateness_s.max(lateness);
+            if lateness > sim.cycle_s() {
+                summary.late_cycles += 1;
+                if lateness > 10.0 * sim.cycle_s() {
+                    // Far behind (machine stalled): restart the schedule instead of bursting.
+                    t0 = Instant::now();
+                    k = 0;
+                }
+            }
+        }
+        let sent_at = Instant::now();
+        let sent = sim.measurement().emit(&mut msr_bytes).is_ok()
+            && socket.send_to(&msr_bytes, config.client).is_ok();
+        if !sent {
+            summary.send_errors += 1;
+        }
+        let msr_seq = sim.measurement().header.send_seq_count;
+        match config.mode {
+            TimingMode::RealTime => {
+                let deadline = t0 + cycle * (k + 1);
+                while let Some((n, at)) = recv_until(socket, &mut buf, deadline) {
+                    sim.submit_datagram(&buf[..n], (at - sent_at).as_secs_f64());
+                }
+            }
+            TimingMode::Lockstep { answer_timeout } => {
+                let deadline = sent_at + answer_timeout;
+                if sent {
+                    while let Some((n, _)) = recv_until(socket, &mut buf, deadline) {
+                        sim.submit_datagram(&buf[..n], 0.0);
+                        if Command::parse(&buf[..n])
+                            .is_ok_and(|c| c.header.refl_seq_count == msr_seq)
+                        {
+                            break;
+                        }
+                    }
+                }
+            }
+        }
+        let msr = *sim.advance();
+        if let Some(log) = truth.as_mut() {
+            log.record(sim, &msr)?;
+        }
+        summary.cycles += 1;
+        k = k.wrapping_add(1);
+    }
+    if let Some(log) = truth.as_mut() {
+        log.flush()?;
+    }
+    summary.sim_time_s = summary.cycles as f64 * sim.cycle_s();
+    summary.wall_time_s = start.elapsed().as_secs_f64();
+    if summary.cycles > 0 {
+        summary.mean_send_jitter_s = jitter_sum / summary.cycles as f64;
+    }
+    Ok(summary)
+}
+
+/// A controller running on its own thread.
+#[derive(Debug)]
+pub struct MockRobotHandle {
+    local_addr: SocketAddr,
+    stop: Arc<AtomicBool>,
+    thread: JoinHandle<Result<(Simulation, RunSummary), SimError>>,
+}
+
+impl MockRobotHandle {
+    /// The controller's socket address (where its measurements come from).
+    pub fn local_addr(&self) -> SocketAddr {
+        self.local_addr
+    }
+
+    /// Asks the controller to stop after the current cycle.
+    pub fn stop(&self) {
+        self.stop.store(true, Ordering::Relaxed);
+    }
+
+    /// Whether the controller thread has ended (scenario over, or stopped).
+    pub fn is_finished(&self) -> bool {
+        self.thread.is_finished()
+    }
+
+    /// Stops the controller and returns the final simulation (for ground truth) and summary.
+    pub fn join(self) -> Result<(Simulation, RunSummary), SimError> {
+        self.stop();
+        self.thread
+            .join()
+            .map_err(|_| SimError::InvalidConfig("mock robot thread panicked".into()))?
+    }
+}
+
+/// Binds the socket and runs `sim` on a new thread.
+pub fn spawn(mut sim: Simulation, config: ServerConfig) -> Result<MockRobotHandle, SimError> {
+    let socket = UdpSocket::bind(config.bind)?;
+    let local_addr = socket.local_addr()?;
+    let stop = Arc::new(AtomicBool::new(false));
+    let thread_stop = Arc::clone(&stop);
+    let thread = std::thread::Builder::new()
+        .name("mock-robot".into())
+        .spawn(move || {
+            let summary = run(&mut sim, &socket, &config, &thread_stop)?;
+            Ok((sim, summary))
+        })?;
+    Ok(MockRobotHandle {
+        local_addr,
+        stop,
+        thread,
+    })
+}

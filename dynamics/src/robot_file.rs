@@ -308,7 +308,7 @@ impl RobotFile {
 
     /// TOML text of this file.
     pub fn to_toml_string(&self) -> Result<String, DynamicsError> {
-        toml::to_string_pretty(self).map_err(|e| DynamicsError::Toml(e.to_string()))
+        toml::to_string(self).map_err(|e| DynamicsError::Toml(e.to_string()))
     }
 }
 

@@ -79,6 +79,9 @@ pub struct FriConfig {
     pub controller: Option<IpAddr>,
     /// Expected controller cycle, s (default 0.001; FRI allows 0.001–0.1).
     pub cycle_s: f64,
+    /// Largest joint set-point change per cycle in command mode, rad (default 2e-4, well under
+    /// the controller's set-point jump limit); `motion.max_velocity × cycle_s` must not exceed it.
+    pub max_joint_step: f64,
 }
 
 impl Default for FriConfig {
@@ -87,6 +90,7 @@ impl Default for FriConfig {
             bind: SocketAddr::from(([0, 0, 0, 0], 49938)),
             controller: None,
             cycle_s: 0.001,
+            max_joint_step: 2.0e-4,
         }
     }
 }
@@ -164,7 +168,8 @@ impl Default for ReactionConfig {
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct MotionConfig {
-    /// Maximum joint velocity per joint, rad/s (default 0.5).
+    /// Maximum joint velocity per joint, rad/s (default 0.18; at most
+    /// `fri.max_joint_step / fri.cycle_s`, 0.2 rad/s with the defaults).
     pub max_velocity: [f64; JOINTS],
     /// Maximum joint acceleration per joint, rad/s² (default 1.0).
     pub max_acceleration: [f64; JOINTS],
@@ -175,7 +180,7 @@ pub struct MotionConfig {
 impl Default for MotionConfig {
     fn default() -> Self {
         Self {
-            max_velocity: [0.5; JOINTS],
+            max_velocity: [0.18; JOINTS],
             max_acceleration: [1.0; JOINTS],
             max_jerk: [5.0; JOINTS],
         }
@@ -334,13 +339,20 @@ impl Config {
         positive_all("motion.max_velocity", &self.motion.max_velocity)?;
         positive_all("motion.max_acceleration", &self.motion.max_acceleration)?;
         positive_all("motion.max_jerk", &self.motion.max_jerk)?;
+        // The LWR's slowest joint limit is 1.92 rad/s; the controller treats a larger step per
+        // cycle as a set-point jump.
+        let s = self.fri.max_joint_step;
+        check(
+            "fri.max_joint_step",
+            s.is_finite() && s > 0.0 && s <= 1.5 * self.fri.cycle_s,
+            "must be in (0, 1.5 rad/s × fri.cycle_s]",
+        )?;
         for (i, v) in self.motion.max_velocity.iter().enumerate() {
-            // The LWR 4+ joint speed limits are 1.7–2.3 rad/s; the service never needs more.
             check_at(
                 "motion.max_velocity",
                 i,
-                *v <= 1.7,
-                "must not exceed 1.7 rad/s",
+                *v * self.fri.cycle_s <= s * (1.0 + 1e-9),
+                "times fri.cycle_s must not exceed fri.max_joint_step (the set-point step limit)",
             )?;
         }
         let e = &self.estimation;
@@ -505,7 +517,7 @@ mod tests {
             "motion.max_jerk[2] (joint 3)"
         );
         assert_eq!(
-            invalid_key("[motion]\nmax_velocity = [5.0, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5]\n"),
+            invalid_key("[motion]\nmax_velocity = [0.5, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1]\n"),
             "motion.max_velocity[0] (joint 1)"
         );
         assert_eq!(

@@ -29,7 +29,13 @@ const MOVE_START_TIMEOUT_S: f64 = 10.0;
 /// Longest accepted move, s.
 const MOVE_TIMEOUT_S: f64 = 120.0;
 /// Largest distance of the measured position from the target after a move, rad.
-const ARRIVAL_TOLERANCE: f64 = 0.02;
+const ARRIVAL_TOLERANCE: f64 = 0.005;
+/// During workflows that may carry an unknown (uncompensated) payload, a contact is a change of
+/// the residual since the previous static sample larger than this multiple of the threshold: the
+/// payload's own gravity torque changes by a few Nm between neighbouring ±7° poses.
+const WORKFLOW_THRESHOLD_FACTOR: f64 = 2.0;
+/// Longest wait for the arm to reach the target after the set-point did, s (controller time).
+const ARRIVAL_TIMEOUT_S: f64 = 2.0;
 
 /// Where the service reads FRI statistics for `status` (the endpoint's snapshot).
 pub type FriStateSource = Arc<dyn Fn() -> fri::state::RobotState + Send + Sync>;
@@ -272,7 +278,13 @@ impl ServiceCore {
 
     /// Moves to `target` in command mode and waits for the arrival; aborts on a collision,
     /// a stop, or loss of command mode.
-    pub async fn move_to(&self, target: [f64; 7]) -> Result<(), OperatorError> {
+    /// With `baseline`, a residual change beyond the workflow threshold aborts the move.
+    pub async fn move_to(
+        &self,
+        target: [f64; 7],
+        baseline: Option<[f64; 7]>,
+    ) -> Result<(), OperatorError> {
+        let thresholds = self.persistent(|s| s.thresholds);
         let latest = self.latest()?;
         if latest.flags & flags::STOPPED != 0 {
             return Err(err(
@@ -295,6 +307,7 @@ impl ServiceCore {
         self.send(RtRequest::MoveTo(target))?;
         let start = Instant::now();
         let mut seen_moving = false;
+        let mut ended_at = None;
         loop {
             let timeout = if seen_moving {
                 MOVE_TIMEOUT_S
@@ -308,14 +321,24 @@ impl ServiceCore {
                         if s.flags & flags::STOPPED != 0 {
                             return Err(err(ErrorCode::Aborted, "stopped during the move"));
                         }
+                        if let Some(b) = baseline
+                            && let Some(j) = (0..7).find(|&j| (s.residual[j] - b[j]).abs() > WORKFLOW_THRESHOLD_FACTOR * thresholds[j])
+                        {
+                            let _ = self.send(RtRequest::Stop);
+                            return Err(err(ErrorCode::Aborted, format!("residual of joint {} changed by more than twice its threshold during the move: contact? (arm stopped; `resume` to continue)", j + 1)));
+                        }
                         if s.flags & flags::MOVING != 0 {
                             seen_moving = true;
                         } else if seen_moving {
+                            // The set-point is at the target; wait for the arm to follow.
                             let off = (0..7).map(|j| (s.q[j] - target[j]).abs()).fold(0.0, f64::max);
-                            if off > ARRIVAL_TOLERANCE {
-                                return Err(err(ErrorCode::Failed, format!("move ended {off:.4} rad from its target")));
+                            let ended = *ended_at.get_or_insert(s.time_s);
+                            if off <= ARRIVAL_TOLERANCE {
+                                return Ok(());
                             }
-                            return Ok(());
+                            if s.time_s - ended > ARRIVAL_TIMEOUT_S {
+                                return Err(err(ErrorCode::Failed, format!("the arm stayed {off:.4} rad from the target")));
+                            }
                         }
                     }
                     Err(RecvError::Lagged(_)) => {}
@@ -369,7 +392,7 @@ impl ServiceCore {
                             return Err(err(ErrorCode::Aborted, "stopped while sampling"));
                         }
                         if let Some(b) = baseline
-                            && let Some(j) = (0..7).find(|&j| (s.residual[j] - b[j]).abs() > thresholds[j])
+                            && let Some(j) = (0..7).find(|&j| (s.residual[j] - b[j]).abs() > WORKFLOW_THRESHOLD_FACTOR * thresholds[j])
                         {
                             return Err(err(ErrorCode::Aborted, format!("residual of joint {} changed by more than its threshold: contact?", j + 1)));
                         }
@@ -431,12 +454,12 @@ impl ServiceCore {
             return Err(err(ErrorCode::InvalidArguments, "`around` must be finite"));
         }
         let pattern = paper_pattern(&around, count, step, self.model.limits());
-        let baseline = Some(latest.residual);
+        let mut baseline = Some(latest.residual);
         let mut samples = Vec::with_capacity(count);
         for (k, pose) in pattern.iter().enumerate() {
             let progress = |p: &str| json!({"phase": p, "step": k + 1, "of": count, "workflow": phase, "pose": pose});
             events.send("progress", progress("moving")).await;
-            let r = self.move_to(*pose).await;
+            let r = self.move_to(*pose, baseline).await;
             if let Err(e) = r {
                 self.release().await;
                 return Err(e);
@@ -446,7 +469,10 @@ impl ServiceCore {
                 .acquire(true, self.config.estimation.average_s, baseline)
                 .await;
             let (sample, settle_s) = match acquired {
-                Ok(x) => x,
+                Ok(x) => {
+                    baseline = self.shared.latest().map(|s| s.residual).or(baseline);
+                    x
+                }
                 Err(e) => {
                     self.release().await;
                     return Err(e);
@@ -464,7 +490,7 @@ impl ServiceCore {
                 json!({"phase": "returning", "workflow": phase, "step": count, "of": count}),
             )
             .await;
-        let back = self.move_to(start_q).await;
+        let back = self.move_to(start_q, baseline).await;
         self.release().await;
         back?;
         Ok((samples, around))
@@ -565,6 +591,10 @@ impl ServiceCore {
         )?;
         let mut result = serde_json::to_value(&estimate).unwrap_or(Value::Null);
         result["tare_used"] = json!(use_tare);
+        if use_tare {
+            // The tare was applied here (Δτ = τ_loaded − τ_unloaded), not inside the estimator.
+            result["correction"] = json!("tare");
+        }
         result["frame"] = json!("7");
         result["around"] = json!(around);
         result["applied"] = json!(apply);

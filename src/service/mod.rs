@@ -125,6 +125,7 @@ impl RunningService {
         let mut ec = EndpointConfig::default();
         ec.socket.bind = config.fri.bind;
         ec.session.controller_ip = config.fri.controller;
+        ec.session.max_joint_step = config.fri.max_joint_step;
         let endpoint =
             Arc::new(Endpoint::spawn(ec, processor).context("starting the FRI endpoint")?);
         // A weak handle: the core must not keep the loop alive after shutdown.

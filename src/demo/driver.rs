@@ -1,0 +1,177 @@
+//! Runs a `mock_robot::Simulation` as the FRI controller of a service over UDP loopback, either
+//! in lockstep (the next measurement is sent as soon as the answer arrives, or after a timeout
+//! counted as a miss: deterministic and faster than real time, for tests) or paced in real time
+//! (for the demo and soak runs).
+
+use std::net::{SocketAddr, UdpSocket};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use fri::wire::{CMD_LEN, Command, MSR_LEN};
+use mock_robot::{SimError, Simulation, SimulationConfig};
+
+/// How the simulated controller is paced.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pacing {
+    /// Next cycle as soon as the answer arrived (or after `timeout`, counted as a miss).
+    Lockstep {
+        /// Longest wait for an answer.
+        timeout: Duration,
+    },
+    /// One cycle per controller period of wall-clock time.
+    RealTime,
+}
+
+/// Figures of a driver run.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct DriverStats {
+    /// Measurements sent.
+    pub sent: u64,
+    /// Answers received in time.
+    pub answered: u64,
+    /// Cycles without an answer in time.
+    pub missed: u64,
+}
+
+/// Shared counters of a running driver.
+#[derive(Debug, Default)]
+struct Counters {
+    sent: AtomicU64,
+    answered: AtomicU64,
+    missed: AtomicU64,
+    sim_cycles: AtomicU64,
+}
+
+/// A running simulated controller.
+#[derive(Debug)]
+pub struct MockDriver {
+    stop: Arc<AtomicBool>,
+    counters: Arc<Counters>,
+    thread: Option<JoinHandle<Simulation>>,
+    local: SocketAddr,
+}
+
+impl MockDriver {
+    /// Builds the simulation and starts sending to `service` from an ephemeral loopback port.
+    pub fn spawn(
+        config: SimulationConfig,
+        service: SocketAddr,
+        pacing: Pacing,
+    ) -> Result<Self, SimError> {
+        let sim = Simulation::new(config)?;
+        let socket = UdpSocket::bind("127.0.0.1:0").map_err(SimError::from)?;
+        let local = socket.local_addr().map_err(SimError::from)?;
+        let stop = Arc::new(AtomicBool::new(false));
+        let counters = Arc::new(Counters::default());
+        let (s, c) = (stop.clone(), counters.clone());
+        let thread = std::thread::Builder::new()
+            .name("mock-controller".into())
+            .spawn(move || run(sim, socket, service, pacing, s, c))
+            .map_err(SimError::from)?;
+        Ok(Self {
+            stop,
+            counters,
+            thread: Some(thread),
+            local,
+        })
+    }
+
+    /// The controller's local UDP address.
+    pub fn local_addr(&self) -> SocketAddr {
+        self.local
+    }
+
+    /// Counters so far.
+    pub fn stats(&self) -> DriverStats {
+        DriverStats {
+            sent: self.counters.sent.load(Ordering::Relaxed),
+            answered: self.counters.answered.load(Ordering::Relaxed),
+            missed: self.counters.missed.load(Ordering::Relaxed),
+        }
+    }
+
+    /// Simulated time so far, in cycles.
+    pub fn cycles(&self) -> u64 {
+        self.counters.sim_cycles.load(Ordering::Relaxed)
+    }
+
+    /// Stops the controller and returns the simulation (for its truth and statistics).
+    pub fn stop(mut self) -> Option<Simulation> {
+        self.stop.store(true, Ordering::Release);
+        self.thread.take().and_then(|t| t.join().ok())
+    }
+}
+
+impl Drop for MockDriver {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Release);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+fn run(
+    mut sim: Simulation,
+    socket: UdpSocket,
+    service: SocketAddr,
+    pacing: Pacing,
+    stop: Arc<AtomicBool>,
+    counters: Arc<Counters>,
+) -> Simulation {
+    let period = Duration::from_secs_f64(sim.cycle_s());
+    let timeout = match pacing {
+        Pacing::Lockstep { timeout } => timeout,
+        // In real time the answer must come within the cycle.
+        Pacing::RealTime => period,
+    };
+    let mut out = [0u8; MSR_LEN];
+    let mut buf = [0u8; 2048];
+    let mut next = Instant::now();
+    while !stop.load(Ordering::Acquire) && !sim.is_finished() {
+        let sent_at = Instant::now();
+        if sim.measurement().emit(&mut out).is_ok() {
+            let _ = socket.send_to(&out, service);
+            counters.sent.fetch_add(1, Ordering::Relaxed);
+        }
+        let deadline = sent_at + timeout;
+        let mut answer: Option<Command> = None;
+        loop {
+            let now = Instant::now();
+            if now >= deadline {
+                break;
+            }
+            let _ = socket.set_read_timeout(Some((deadline - now).max(Duration::from_micros(50))));
+            match socket.recv_from(&mut buf) {
+                Ok((n, from)) if from == service && n == CMD_LEN => {
+                    if let Ok(c) = Command::parse(&buf[..n]) {
+                        answer = Some(c);
+                        break;
+                    }
+                }
+                Ok(_) => {}
+                Err(_) => break,
+            }
+        }
+        if answer.is_some() {
+            counters.answered.fetch_add(1, Ordering::Relaxed);
+        } else {
+            counters.missed.fetch_add(1, Ordering::Relaxed);
+        }
+        sim.step_cycle(answer.as_ref());
+        counters.sim_cycles.fetch_add(1, Ordering::Relaxed);
+        if pacing == Pacing::RealTime {
+            next += period;
+            let now = Instant::now();
+            if next > now {
+                std::thread::sleep(next - now);
+            } else if now - next > period * 100 {
+                // Far behind (machine overloaded): re-anchor instead of bursting.
+                next = now;
+            }
+        }
+    }
+    sim
+}

@@ -1,0 +1,4 @@
+//! The demo (`fri-service demo`) and the simulated-controller driver it shares with the
+//! end-to-end tests.
+
+pub mod driver;

@@ -87,7 +87,7 @@ impl RobotState {
     pub fn estimated_external_joint_torques(&self) -> [f64; JOINTS] {
         self.measurement.data.est_ext_jnt_trq
     }
-    /// Estimated external TCP wrench Fx Fy Fz [N], Tz Ty Tx [Nm], task frame (wire order).
+    /// Estimated external TCP wrench Fx Fy Fz (N), Tz Ty Tx (Nm), task frame (wire order).
     pub fn estimated_external_tcp_wrench(&self) -> [f64; 6] {
         self.measurement.data.est_ext_tcp_ft
     }
@@ -99,7 +99,7 @@ impl RobotState {
     pub fn mass_matrix(&self) -> [[f64; JOINTS]; JOINTS] {
         self.measurement.data.mass_matrix
     }
-    /// Jacobian 6×7 row-major, rows X Y Z [m/rad], RZ RY RX [rad/rad], task frame.
+    /// Jacobian 6×7 row-major, rows X Y Z (m/rad), RZ RY RX (rad/rad), task frame.
     pub fn jacobian(&self) -> [[f64; JOINTS]; 6] {
         self.measurement.data.jacobian
     }
@@ -158,7 +158,7 @@ impl RobotState {
             && self.measurement.robot.power != 0
             && self.measurement.robot.error == 0
     }
-    /// The controller's UDP statistics (answer rate, latency [s], jitter [s], miss rate, misses).
+    /// The controller's UDP statistics (answer rate, latency (s), jitter (s), miss rate, misses).
     pub fn udp_statistics(&self) -> InterfaceStatistics {
         self.measurement.interface.statistics
     }

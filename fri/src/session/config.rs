@@ -71,7 +71,7 @@ pub struct DesiredCommand {
     pub added_torque: [f64; JOINTS],
     /// Joint stiffness, Nm/rad, clamped to [0, `max_joint_stiffness`].
     pub joint_stiffness: [f64; JOINTS],
-    /// Normalised joint damping, unitless, clamped to [0, 1].
+    /// Normalised joint damping, unitless, clamped to 0…1.
     pub joint_damping: [f64; JOINTS],
     /// KRL values to send; `int[13..16]` are overwritten by the handshake request.
     pub krl: KrlData,

@@ -546,7 +546,7 @@ fn limit_steps(
     })
 }
 
-/// Clamps gains into [0, max]; non-finite elements take `neutral`. Counts corrections.
+/// Clamps gains into 0…max; non-finite elements take `neutral`. Counts corrections.
 fn clamp_gains(
     gains: &[f64; JOINTS],
     max: f64,

@@ -81,7 +81,7 @@ impl<T: AsRef<[u8]>> CommandPacket<T> {
         set_add_tcp_ft,
         cmd::ADD_TCP_FT,
         6,
-        "`cmd.addTcpFT`: added TCP wrench Fx Fy Fz [N] Tz Ty Tx [Nm], task frame."
+        "`cmd.addTcpFT`: added TCP wrench Fx Fy Fz (N) Tz Ty Tx (Nm), task frame."
     );
     f32_array_accessors!(
         jnt_stiffness,
@@ -102,7 +102,7 @@ impl<T: AsRef<[u8]>> CommandPacket<T> {
         set_cart_stiffness,
         cmd::CART_STIFFNESS,
         6,
-        "`cmd.cartStiffness`: x y z [N/m] then a(Rz) b(Ry) c(Rx) [Nm/rad]."
+        "`cmd.cartStiffness`: x y z (N/m) then a(Rz) b(Ry) c(Rx) (Nm/rad)."
     );
     f32_array_accessors!(
         cart_damping,
@@ -137,13 +137,13 @@ pub struct Command {
     pub cart_pos: Frame,
     /// Added joint torque, Nm.
     pub add_jnt_trq: [f64; JOINTS],
-    /// Added TCP wrench Fx Fy Fz [N] then Tz Ty Tx [Nm], task frame.
+    /// Added TCP wrench Fx Fy Fz (N) then Tz Ty Tx (Nm), task frame.
     pub add_tcp_ft: [f64; 6],
     /// Joint stiffness, Nm/rad.
     pub jnt_stiffness: [f64; JOINTS],
     /// Normalised joint damping, unitless.
     pub jnt_damping: [f64; JOINTS],
-    /// Cartesian stiffness x y z [N/m] then a b c [Nm/rad].
+    /// Cartesian stiffness x y z (N/m) then a b c (Nm/rad).
     pub cart_stiffness: [f64; 6],
     /// Normalised Cartesian damping, unitless, order x y z a b c.
     pub cart_damping: [f64; 6],

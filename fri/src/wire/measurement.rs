@@ -169,7 +169,7 @@ impl<T: AsRef<[u8]>> MeasurementPacket<T> {
         set_est_ext_tcp_ft,
         msr::EST_EXT_TCP_FT,
         6,
-        "`data.estExtTcpFT`: estimated TCP wrench Fx Fy Fz [N] Tz Ty Tx [Nm], task frame."
+        "`data.estExtTcpFT`: estimated TCP wrench Fx Fy Fz (N) Tz Ty Tx (Nm), task frame."
     );
     f32_matrix_accessors!(
         jacobian,
@@ -177,7 +177,7 @@ impl<T: AsRef<[u8]>> MeasurementPacket<T> {
         msr::JACOBIAN,
         6,
         JOINTS,
-        "`data.jacobian`: 6×7 row-major, rows X Y Z [m/rad] RZ RY RX [rad/rad], task frame."
+        "`data.jacobian`: 6×7 row-major, rows X Y Z (m/rad) RZ RY RX (rad/rad), task frame."
     );
     f32_matrix_accessors!(
         mass_matrix,
@@ -326,9 +326,9 @@ pub struct RobotData {
     pub msr_jnt_trq: [f64; JOINTS],
     /// Estimated external joint torques, Nm (`$TORQUE_AXIS_EST`; sign unverified).
     pub est_ext_jnt_trq: [f64; JOINTS],
-    /// Estimated TCP wrench, Fx Fy Fz [N] then Tz Ty Tx [Nm], task frame (`$TORQUE_TCP_EST`).
+    /// Estimated TCP wrench, Fx Fy Fz (N) then Tz Ty Tx (Nm), task frame (`$TORQUE_TCP_EST`).
     pub est_ext_tcp_ft: [f64; 6],
-    /// Geometric Jacobian, 6×7 row-major, rows X Y Z [m/rad] then RZ RY RX [1], task frame.
+    /// Geometric Jacobian, 6×7 row-major, rows X Y Z (m/rad) then RZ RY RX (1), task frame.
     pub jacobian: [[f64; JOINTS]; 6],
     /// Joint-space mass matrix, 7×7 row-major, kg·m² (presumably; unit not stated by KUKA).
     pub mass_matrix: [[f64; JOINTS]; JOINTS],

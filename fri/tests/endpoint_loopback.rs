@@ -1,5 +1,5 @@
 //! The real-time endpoint against a UDP test peer on 127.0.0.1. Asserts behaviour only.
-#![allow(clippy::unwrap_used, clippy::expect_used)]
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::needless_range_loop)]
 
 mod common;
 
@@ -272,5 +272,73 @@ fn datagrams_from_an_unexpected_source_are_not_answered() {
     });
     assert_eq!(s.statistics.rejections.unexpected_source, 1);
     assert!(!s.valid);
+    endpoint.shutdown().unwrap();
+}
+
+#[test]
+fn command_mode_replies_respect_frozen_flags_and_step_limits_every_cycle() {
+    use fri::wire::{MSR_LEN, Measurement};
+    // The application asks for command mode and a set-point 10 mrad away on every joint.
+    let hook = |state: &RobotState, out: &mut CycleOutput| {
+        if state.krc_sequence_counter() == 5 {
+            out.request = Some((RequestKind::StartCommandMode, KrlStrategy::JointImpedance));
+        }
+        out.desired.joint_position = Some(core::array::from_fn(|i| 0.1875 * (i + 1) as f64 + 0.01));
+    };
+    let c = config();
+    let max_step = c.session.max_joint_step;
+    let endpoint = Endpoint::spawn(c, hook).unwrap();
+    let peer = Peer::new(endpoint.local_addr());
+    let mut m: Measurement = common::base_measurement();
+    let mut previous: Option<[f32; 7]> = None;
+    for seq in 1..=200u16 {
+        // The peer plays the controller: command mode from counter 20 on; there the FRI offset
+        // follows our set-point (cmdJntPos stays, offset = sent − cmdJntPos).
+        m.header.send_seq_count = seq;
+        m.interface.state = if seq >= 20 {
+            InterfaceState::Command
+        } else {
+            InterfaceState::Monitor
+        };
+        let mut b = [0u8; MSR_LEN];
+        m.emit(&mut b).unwrap();
+        peer.send(&b);
+        let r = peer.reply();
+        let q = r.jnt_pos();
+        if seq < 20 {
+            assert_eq!(q, mirrored_set_point(), "monitor mode mirrors (seq {seq})");
+            assert_eq!(r.add_jnt_trq(), [0.0; 7]);
+        } else {
+            let p = previous.unwrap();
+            for i in 0..7 {
+                let step = f64::from(q[i]) - f64::from(p[i]);
+                assert!(
+                    step.abs() <= max_step + 1e-6,
+                    "seq {seq} joint {i} step {step}"
+                );
+                assert!(
+                    step > 0.0 || (f64::from(q[i]) - (0.1875 * (i + 1) as f64 + 0.01)).abs() < 1e-6
+                );
+            }
+        }
+        if seq >= 5 {
+            assert_eq!(r.cmd_flags(), CommandFlags::JOINT_IMPEDANCE, "seq {seq}");
+        }
+        for i in 0..7 {
+            m.data.cmd_jnt_pos_fri_offset[i] = f64::from(q[i]) - m.data.cmd_jnt_pos[i];
+        }
+        previous = Some(q);
+    }
+    // 181 command-mode cycles at 0.2 mrad reach the 10 mrad target after 50 cycles.
+    let last = previous.unwrap();
+    for i in 0..7 {
+        assert!((f64::from(last[i]) - (0.1875 * (i + 1) as f64 + 0.01)).abs() < 1e-6);
+    }
+    let s = wait_for(&endpoint, |s| s.statistics.replies_sent == 200);
+    // 49 or 50 clamped steps per joint: whether the last 0.2 mrad step lands exactly on the
+    // limit depends on f64 rounding of the accumulated set-point.
+    let clamped = s.statistics.limits.joint_steps_clamped;
+    assert!((7 * 49..=7 * 50).contains(&clamped), "{clamped}");
+    assert!(s.statistics.limits.mirrored_overrides >= 15);
     endpoint.shutdown().unwrap();
 }

@@ -19,6 +19,18 @@ use rand_distr::Normal;
 
 const SIGMA: f64 = 0.05;
 
+/// Pose generator of a row (fixed set or drawn per trial).
+type PoseSource<'a> = Box<dyn FnMut(&mut StdRng) -> Vec<SVector<f64, 7>> + 'a>;
+/// One row: label, payload, mode, method, trials, poses.
+type Case<'a> = (
+    &'a str,
+    &'a InertialParameters,
+    Mode,
+    Method,
+    usize,
+    PoseSource<'a>,
+);
+
 #[derive(Clone, Copy, PartialEq)]
 enum Mode {
     NoiseOnly,
@@ -227,14 +239,7 @@ fn main() {
     println!("|---|---|---|---|---|---|---|");
     let d = Method::Direct;
     let fixed = |p: Vec<SVector<f64, 7>>| move |_: &mut StdRng| p.clone();
-    let cases: Vec<(
-        &str,
-        &InertialParameters,
-        Mode,
-        Method,
-        usize,
-        Box<dyn FnMut(&mut StdRng) -> Vec<SVector<f64, 7>>>,
-    )> = vec![
+    let cases: Vec<Case> = vec![
         (
             "3.028 kg, 10 paper-pattern poses (pick ± 7°), noise only",
             &heavy,

@@ -82,25 +82,49 @@ impl RunSummary {
     }
 }
 
+/// Waits until `socket` is readable or `timeout` passes; true when readable.
+///
+/// `ppoll` with a nanosecond timeout (high-resolution timer): `SO_RCVTIMEO` is rounded to the
+/// kernel tick (up to 4 ms), far too coarse for a 1 ms cycle.
+fn wait_readable(socket: &UdpSocket, timeout: Duration) -> bool {
+    use std::os::fd::AsRawFd;
+    let mut fd = libc::pollfd {
+        fd: socket.as_raw_fd(),
+        events: libc::POLLIN,
+        revents: 0,
+    };
+    let ts = libc::timespec {
+        tv_sec: libc::time_t::try_from(timeout.as_secs()).unwrap_or(libc::time_t::MAX),
+        tv_nsec: libc::c_long::try_from(timeout.subsec_nanos()).unwrap_or(0),
+    };
+    // SAFETY: `fd` is one valid pollfd and `ts` a valid timespec for the whole call; a null
+    // signal mask keeps the current one.
+    let ready = unsafe { libc::ppoll(&mut fd, 1, &ts, std::ptr::null()) };
+    ready > 0 && fd.revents & libc::POLLIN != 0
+}
+
+/// Receives one datagram into `buf` before `deadline`; returns its length and arrival time.
 fn recv_until(socket: &UdpSocket, buf: &mut [u8], deadline: Instant) -> Option<(usize, Instant)> {
     loop {
         let now = Instant::now();
         if now >= deadline {
             return None;
         }
-        let wait = (deadline - now).max(Duration::from_micros(1));
-        if socket.set_read_timeout(Some(wait)).is_err() {
-            return None;
+        if !wait_readable(socket, deadline - now) {
+            continue;
         }
         match socket.recv_from(buf) {
             Ok((n, _)) => return Some((n, Instant::now())),
-            Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {
-                return None;
-            }
-            // ICMP port unreachable from an earlier send (remote not up yet): keep waiting.
+            // ICMP port unreachable from an earlier send (remote not up yet), or a spurious
+            // wake-up: keep waiting.
             Err(e)
-                if e.kind() == ErrorKind::ConnectionRefused
-                    || e.kind() == ErrorKind::Interrupted =>
+                if matches!(
+                    e.kind(),
+                    ErrorKind::WouldBlock
+                        | ErrorKind::TimedOut
+                        | ErrorKind::ConnectionRefused
+                        | ErrorKind::Interrupted
+                ) =>
             {
                 continue;
             }

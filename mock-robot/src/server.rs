@@ -95,7 +95,8 @@ fn wait_readable(socket: &UdpSocket, timeout: Duration) -> bool {
     };
     let ts = libc::timespec {
         tv_sec: libc::time_t::try_from(timeout.as_secs()).unwrap_or(libc::time_t::MAX),
-        tv_nsec: libc::c_long::try_from(timeout.subsec_nanos()).unwrap_or(0),
+        // subsec_nanos() < 1e9 fits every c_long.
+        tv_nsec: timeout.subsec_nanos() as libc::c_long,
     };
     // SAFETY: `fd` is one valid pollfd and `ts` a valid timespec for the whole call; a null
     // signal mask keeps the current one.

@@ -382,3 +382,49 @@ fn estimate_motion_on_generated_sweeps() {
     assert!(e.contains("no column `t`"), "{e}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn robot_files_work_like_the_builtin_model() {
+    let builtin = ok_json(&[
+        "estimate",
+        "--samples",
+        &fixture("lwr4_loaded_q10.csv"),
+        "--json",
+    ]);
+    for file in ["lwr4.toml", "lwr4.urdf"] {
+        let path = format!("{}/dynamics/robots/{file}", env!("CARGO_MANIFEST_DIR"));
+        let v = ok_json(&[
+            "estimate",
+            "--samples",
+            &fixture("lwr4_loaded_q10.csv"),
+            "--robot",
+            &path,
+            "--json",
+        ]);
+        let (a, b) = (
+            v["mass"].as_f64().unwrap(),
+            builtin["mass"].as_f64().unwrap(),
+        );
+        assert!((a - b).abs() < 1e-9, "{file}: {a} vs {b}");
+    }
+    let two = format!(
+        "{}/dynamics/robots/planar_2r.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let e = err_text(&[
+        "estimate",
+        "--samples",
+        &fixture("lwr4_loaded_q10.csv"),
+        "--robot",
+        &two,
+    ]);
+    assert!(e.contains("2 joints"), "{e}");
+    let e = err_text(&[
+        "estimate",
+        "--samples",
+        &fixture("lwr4_loaded_q10.csv"),
+        "--robot",
+        "/no/such/robot.toml",
+    ]);
+    assert!(e.contains("cannot read robot file"), "{e}");
+}

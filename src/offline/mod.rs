@@ -10,7 +10,7 @@ mod args;
 mod commands;
 mod motion_cmd;
 mod report;
-mod robot;
+pub(crate) mod robot;
 
 pub use args::{
     CalibrateArgs, CoefficientsArgs, EstimateArgs, MethodArg, MotionArgs, OfflineCommand, PosesArgs,

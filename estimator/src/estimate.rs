@@ -80,7 +80,8 @@ pub struct PayloadEstimate {
     pub mass: f64,
     /// 1σ of the mass, kg.
     pub mass_std: f64,
-    /// Centre of mass in the last DH frame, m.
+    /// Centre of mass in the last DH frame, m. A component the poses cannot determine (along
+    /// the joint axes of a planar robot) is NaN, written as `null` in JSON.
     pub com: [f64; 3],
     /// 1σ of the CoM coordinates in the last DH frame, m.
     pub com_std: [f64; 3],
@@ -179,9 +180,10 @@ pub(crate) fn estimate_direct_with<const N: usize>(
             b[r] = d[j];
         }
     }
-    let ls = lsq::solve(&a, &b, options.condition_limit)?;
-    let x = Vector4::new(ls.x[0], ls.x[1], ls.x[2], ls.x[3]);
-    let cov = Matrix4::from_fn(|r, c| ls.covariance[(r, c)]);
+    let cols = identifiable_columns(&a);
+    let a_red = a.select_columns(cols.iter());
+    let ls = lsq::solve(&a_red, &b, options.condition_limit)?;
+    let (x, cov) = expand(&cols, &ls.x, &ls.covariance);
     let mut sq = vec![0.0; N];
     for (y, d) in regs.iter().zip(&deltas) {
         let r = d - y * x;
@@ -197,6 +199,7 @@ pub(crate) fn estimate_direct_with<const N: usize>(
         model,
         Method::Direct,
         correction,
+        &cols,
         x,
         cov,
         residual_rms,
@@ -275,13 +278,14 @@ pub(crate) fn estimate_coefficients_with<const N: usize>(
     }
     let nz: Vec<usize> = (0..nb).filter(|&r| jac.row(r).amax() > 1e-12).collect();
     let j_nz = DMatrix::from_fn(nz.len(), 4, |r, c| jac[(nz[r], c)]);
-    let pinv = lsq::pseudo_inverse(&j_nz, 1e10)?;
+    // payload parameters that no coefficient depends on (m·cz of a planar robot) are not identifiable
+    let cols = identifiable_columns(&j_nz);
+    let pinv = lsq::pseudo_inverse(&j_nz.select_columns(cols.iter()), 1e10)?;
     let eps_nz = DVector::from_iterator(nz.len(), nz.iter().map(|&r| ls.x[r]));
     let cov_eps = DMatrix::from_fn(nz.len(), nz.len(), |r, c| ls.covariance[(nz[r], nz[c])]);
     let p = &pinv * eps_nz;
     let cov_p = &pinv * cov_eps * pinv.transpose();
-    let x = Vector4::new(p[0], p[1], p[2], p[3]);
-    let cov = Matrix4::from_fn(|r, c| cov_p[(r, c)]);
+    let (x, cov) = expand(&cols, &p, &cov_p);
     let mut sq = vec![0.0; N];
     for (y, d) in regs.iter().zip(&deltas) {
         let r = DVector::from_column_slice(d.as_slice()) - y * &ls.x;
@@ -297,6 +301,7 @@ pub(crate) fn estimate_coefficients_with<const N: usize>(
         model,
         Method::Coefficients,
         correction,
+        &cols,
         x,
         cov,
         residual_rms,
@@ -305,6 +310,26 @@ pub(crate) fn estimate_coefficients_with<const N: usize>(
         samples.len(),
         &joints,
     )
+}
+
+/// Columns with a non-negligible norm (1e-9 of the largest): the identifiable parameters.
+fn identifiable_columns(m: &DMatrix<f64>) -> Vec<usize> {
+    let norms: Vec<f64> = (0..m.ncols()).map(|c| m.column(c).norm()).collect();
+    let max = norms.iter().copied().fold(0.0, f64::max);
+    (0..m.ncols()).filter(|&c| norms[c] > 1e-9 * max).collect()
+}
+
+/// Expands a reduced solution to the four payload parameters (0 where not identifiable).
+fn expand(cols: &[usize], x: &DVector<f64>, cov: &DMatrix<f64>) -> (Vector4<f64>, Matrix4<f64>) {
+    let mut xf = Vector4::zeros();
+    let mut cf = Matrix4::zeros();
+    for (i, &ci) in cols.iter().enumerate() {
+        xf[ci] = x[i];
+        for (k, &ck) in cols.iter().enumerate() {
+            cf[(ci, ck)] = cov[(i, k)];
+        }
+    }
+    (xf, cf)
 }
 
 fn arr3(v: &Vector3<f64>) -> [f64; 3] {
@@ -324,6 +349,7 @@ fn finish<const N: usize>(
     model: &Model<N>,
     method: Method,
     correction: Correction,
+    identified: &[usize],
     x: Vector4<f64>,
     cov: Matrix4<f64>,
     residual_rms: Vec<f64>,
@@ -332,6 +358,12 @@ fn finish<const N: usize>(
     samples: usize,
     joints: &[usize],
 ) -> Result<PayloadEstimate, EstimatorError> {
+    if !identified.contains(&0) {
+        return Err(EstimatorError::RankDeficient {
+            condition: f64::INFINITY,
+            limit: f64::INFINITY,
+        });
+    }
     let mass = x[0];
     let mass_std = cov[(0, 0)].max(0.0).sqrt();
     if mass.is_nan() || mass <= 0.0 {
@@ -353,18 +385,45 @@ fn finish<const N: usize>(
     let rot = flange.rotation.to_rotation_matrix();
     let cov_cf = rot.matrix().transpose() * cov_c * rot.matrix();
     let cov_h = cov.fixed_view::<3, 3>(1, 1).into_owned();
+    // components the data cannot determine are NaN (null in JSON), never a made-up 0
+    let unknown = |i: usize| !identified.contains(&(i + 1));
+    let mask = |mut v: [f64; 3]| {
+        for (i, x) in v.iter_mut().enumerate() {
+            if unknown(i) {
+                *x = f64::NAN;
+            }
+        }
+        v
+    };
+    // a flange-frame coordinate is unknown when it mixes in an unknown frame-n coordinate
+    let mask_flange = |mut v: [f64; 3]| {
+        for (i, x) in v.iter_mut().enumerate() {
+            if (0..3).any(|k| unknown(k) && rot.matrix()[(k, i)].abs() > 1e-12) {
+                *x = f64::NAN;
+            }
+        }
+        v
+    };
+    let mut covariance = [0, 1, 2, 3].map(|r| [0, 1, 2, 3].map(|c| cov[(r, c)]));
+    for (r, row) in covariance.iter_mut().enumerate() {
+        for (c, v) in row.iter_mut().enumerate() {
+            if !identified.contains(&r) || !identified.contains(&c) {
+                *v = f64::NAN;
+            }
+        }
+    }
     Ok(PayloadEstimate {
         method,
         correction,
         mass,
         mass_std,
-        com: arr3(&com),
-        com_std: std3(&cov_c),
-        com_flange: arr3(&com_flange),
-        com_flange_std: std3(&cov_cf),
-        first_moment: arr3(&h),
-        first_moment_std: std3(&cov_h),
-        covariance: [0, 1, 2, 3].map(|r| [0, 1, 2, 3].map(|c| cov[(r, c)])),
+        com: mask(arr3(&com)),
+        com_std: mask(std3(&cov_c)),
+        com_flange: mask_flange(arr3(&com_flange)),
+        com_flange_std: mask_flange(std3(&cov_cf)),
+        first_moment: mask(arr3(&h)),
+        first_moment_std: mask(std3(&cov_h)),
+        covariance,
         residual_rms,
         residual_std,
         condition_number,

@@ -6,9 +6,17 @@
 //! frame n of the robot model (frame 7 of the LWR 4+, at the wrist point) unless a field says
 //! `flange`. Joints are 0-based in code and 1-based in messages.
 //!
-//! Modules: [`lsq`] least squares with covariance; [`expr`] and [`coefficients`] the paper's
-//! coefficient-set workflow (eqs. 21–28); [`filter`] zero-phase Butterworth filtering and
-//! numerical differentiation.
+//! Modules:
+//! - [`estimate`]: the static one-shot estimator (eq. 26), direct or via the paper's coefficients;
+//! - [`correction`]: tare and controller model-error calibration;
+//! - [`coefficients`] and [`expr`]: the coefficient-set workflow (eqs. 21–28) and its file format;
+//! - [`motion`]: full inertial estimation from trajectories (eq. 45);
+//! - [`poses`]: pose design with predicted uncertainty;
+//! - [`samples`]: static-sample CSV and validation; [`lsq`]: least squares with covariance;
+//! - [`basis`]: numerical gravity base parameters; [`filter`]: zero-phase Butterworth and
+//!   differentiation; [`sim`]: synthetic data for tests and studies.
+//!
+//! Methods, frames, file formats and how to read the uncertainties: `docs/estimation.md`.
 
 pub mod basis;
 pub mod coefficients;

@@ -110,3 +110,38 @@ fn coefficient_method_sees_the_model_error_as_well() {
     assert!((e.mass / 3.028 - 1.0).abs() < 0.03, "{}", e.mass);
     assert!((e.mass / 3.028 - 1.0).abs() > 0.002, "{}", e.mass);
 }
+
+/// The planar 2R robot (gravity along −y in its plane): m, m·cx, m·cy are identifiable, m·cz is
+/// not and is reported as NaN (null in JSON), never as a made-up number.
+#[test]
+fn planar_2r_static_estimate_reports_the_unobservable_axis() {
+    let model = dynamics::planar_2r();
+    let payload = InertialParameters::point_mass(1.5, Vector3::new(0.3, 0.1, 0.0));
+    let poses: Vec<SVector<f64, 2>> = (0..12)
+        .map(|k| SVector::from([0.3 * k as f64 - 1.5, 1.1 - 0.2 * k as f64]))
+        .collect();
+    for method in [Method::Direct, Method::Coefficients] {
+        let samples = static_samples(&model, &payload, &model, &poses, |k, j| {
+            1e-3 * (((k * 3 + j) % 5) as f64 - 2.0)
+        });
+        let e = estimate(
+            &model,
+            &samples,
+            &EstimateOptions {
+                method,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert!((e.mass - 1.5).abs() < 2e-3, "{method:?}: {}", e.mass);
+        assert!(
+            (e.com[0] - 0.3).abs() < 2e-3 && (e.com[1] - 0.1).abs() < 2e-3,
+            "{method:?}: {:?}",
+            e.com
+        );
+        assert!(e.com[2].is_nan() && e.com_std[2].is_nan() && e.covariance[3][3].is_nan());
+        assert!(e.mass_std > 0.0 && e.mass_std.is_finite());
+        let json = serde_json::to_value(&e).unwrap();
+        assert!(json["com"][2].is_null());
+    }
+}

@@ -5,12 +5,21 @@ use std::fmt::Write as _;
 use estimator::estimate::{Correction, Method, PayloadEstimate};
 use estimator::poses::Prediction;
 
+/// Millimetres with sign; "n/a" for a component the data cannot determine (NaN).
 fn mm(v: f64) -> String {
-    format!("{:+8.2}", v * 1000.0)
+    if v.is_nan() {
+        format!("{:>8}", "n/a")
+    } else {
+        format!("{:+8.2}", v * 1000.0)
+    }
 }
 
 fn mm_std(v: f64) -> String {
-    format!("{:8.2}", v * 1000.0)
+    if v.is_nan() {
+        format!("{:>8}", "n/a")
+    } else {
+        format!("{:8.2}", v * 1000.0)
+    }
 }
 
 /// Report of a static estimate.

@@ -428,3 +428,75 @@ fn robot_files_work_like_the_builtin_model() {
     ]);
     assert!(e.contains("cannot read robot file"), "{e}");
 }
+
+/// A user-written coefficient-set file in the explicit π_L form of eq. (30) (payload symbols
+/// written out) gives the same p̂_L as the built-in eq. (29) set.
+#[test]
+fn coefficient_set_file_in_explicit_form() {
+    let dir = std::env::temp_dir().join(format!("fri-ctl-coef-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let set = dir.join("eq30.coef");
+    std::fs::write(
+        &set,
+        "# eq. (30)\nlinks 2\nconst a1 = 1\nconst a2 = 0.5\npayload m, mcx, mcy, Jzz\n\
+         coef p1 = 0.5*(a2^2*(m2 + mL) + J2zz + JLzz) + a2*(c2x*m2 + cLx*mL)\n\
+         coef p2 = c2x*m2 + cLx*mL + a2*(m2 + mL)\n\
+         coef p3 = c2y*m2 + cLy*mL\n\
+         coef p4 = 0.5*(J1zz + a1^2*m1 + a1^2*(m2 + mL)) + a1*c1x*m1\n\
+         coef p5 = c1x*m1 + a1*m1 + a1*(m2 + mL)\n\
+         coef p6 = c1y*m1\n",
+    )
+    .unwrap();
+    let v = ok_json(&[
+        "coefficients",
+        "--set",
+        set.to_str().unwrap(),
+        "--unloaded",
+        &fixture("planar2r_pi_unloaded.json"),
+        "--loaded",
+        &fixture("planar2r_pi_loaded.json"),
+        "--json",
+    ]);
+    let p: Vec<f64> = v["p_l"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    for (a, b) in p.iter().zip([1.5, 0.45, 0.15, 0.1814]) {
+        assert!((a - b).abs() < 5e-5, "{p:?}");
+    }
+    std::fs::write(&set, "links 2\ncoef p1 = m1*m2\n").unwrap();
+    let e = err_text(&[
+        "coefficients",
+        "--set",
+        set.to_str().unwrap(),
+        "--unloaded",
+        &fixture("planar2r_pi_unloaded.json"),
+        "--loaded",
+        &fixture("planar2r_pi_loaded.json"),
+    ]);
+    assert!(e.contains("line 2") && e.contains("linear"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn planar_2r_pose_design() {
+    let v = ok_json(&[
+        "poses",
+        "--robot",
+        "planar-2r",
+        "--around",
+        "0.3,-0.5",
+        "--count",
+        "6",
+        "--spread-deg",
+        "20",
+        "--mass-guess",
+        "1.5",
+        "--json",
+    ]);
+    assert_eq!(v["poses"].as_array().unwrap().len(), 6);
+    assert!(v["predicted"]["mass_std"].as_f64().unwrap() > 0.0);
+    assert!(v["predicted"]["com_std"][2].is_null());
+}

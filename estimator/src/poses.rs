@@ -29,7 +29,8 @@ pub enum Criterion {
 pub struct Prediction {
     /// Predicted 1σ of the mass, kg.
     pub mass_std: f64,
-    /// Predicted 1σ of the CoM in the last DH frame, m (at the nominal payload).
+    /// Predicted 1σ of the CoM in the last DH frame, m (at the nominal payload); NaN for an axis
+    /// no pose can determine (along the joint axes of a planar robot).
     pub com_std: [f64; 3],
     /// 2-norm condition number of the stacked payload regressor.
     pub condition_number: f64,
@@ -98,7 +99,17 @@ fn prediction_from_information(
     sigma: f64,
     nominal: &Nominal,
 ) -> Result<Prediction, EstimatorError> {
-    let eig = info.symmetric_eigen();
+    // parameters no pose can excite (m·cz of a planar robot: zero row and column) are left out
+    let dmax = info.diagonal().max();
+    let known: Vec<usize> = (0..4).filter(|&i| info[(i, i)] > 1e-12 * dmax).collect();
+    if !known.contains(&0) {
+        return Err(EstimatorError::RankDeficient {
+            condition: f64::INFINITY,
+            limit: 1e6,
+        });
+    }
+    let reduced = info.select_rows(known.iter()).select_columns(known.iter());
+    let eig = reduced.clone().symmetric_eigen();
     let (lmax, lmin) = (eig.eigenvalues.max(), eig.eigenvalues.min());
     let condition_number = if lmin > 0.0 {
         (lmax / lmin).sqrt()
@@ -111,13 +122,18 @@ fn prediction_from_information(
             limit: 1e6,
         });
     }
-    let Some(inv) = info.try_inverse() else {
+    let Some(inv_r) = reduced.try_inverse() else {
         return Err(EstimatorError::RankDeficient {
             condition: f64::INFINITY,
             limit: 1e6,
         });
     };
-    let cov = inv * (sigma * sigma);
+    let mut cov = Matrix4::zeros();
+    for (a, &i) in known.iter().enumerate() {
+        for (b, &k) in known.iter().enumerate() {
+            cov[(i, k)] = inv_r[(a, b)] * sigma * sigma;
+        }
+    }
     let m = nominal.mass;
     let h = Vector3::from(nominal.com) * m;
     let mut jc = Matrix3x4::zeros();
@@ -127,11 +143,14 @@ fn prediction_from_information(
     let cc = jc * cov * jc.transpose();
     Ok(Prediction {
         mass_std: cov[(0, 0)].max(0.0).sqrt(),
-        com_std: [
-            cc[(0, 0)].max(0.0).sqrt(),
-            cc[(1, 1)].max(0.0).sqrt(),
-            cc[(2, 2)].max(0.0).sqrt(),
-        ],
+        // NaN (null in JSON) for a CoM axis the poses cannot determine
+        com_std: std::array::from_fn(|i| {
+            if known.contains(&(i + 1)) {
+                cc[(i, i)].max(0.0).sqrt()
+            } else {
+                f64::NAN
+            }
+        }),
         condition_number,
     })
 }
@@ -305,6 +324,38 @@ mod tests {
             "{:?} vs {:?}",
             f.com_std,
             paper.com_std
+        );
+    }
+
+    #[test]
+    fn planar_robot_design_leaves_out_the_unobservable_axis() {
+        let model = dynamics::planar_2r();
+        let center = SVector::<f64, 2>::from([0.3, -0.5]);
+        let p = paper_pattern(&model, &center, 20f64.to_radians(), 8);
+        let nominal = Nominal {
+            mass: 1.5,
+            com: [0.3, 0.1, 0.0],
+        };
+        let pred = predict(&model, &p, 0.05, &nominal).unwrap();
+        assert!(
+            pred.mass_std.is_finite() && pred.com_std[0].is_finite() && pred.com_std[2].is_nan()
+        );
+        let opt = optimize(
+            &model,
+            &center,
+            20f64.to_radians(),
+            4,
+            Criterion::D,
+            100,
+            &nominal,
+        )
+        .unwrap();
+        let po = predict(&model, &opt, 0.05, &nominal).unwrap();
+        assert!(
+            po.mass_std <= pred.mass_std * 1.5,
+            "{} vs {}",
+            po.mass_std,
+            pred.mass_std
         );
     }
 

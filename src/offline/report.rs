@@ -111,12 +111,22 @@ pub fn payload(e: &PayloadEstimate, last_frame: usize) -> String {
 
 /// Report of a pose-design prediction.
 pub fn prediction(p: &Prediction, sigma: f64) -> String {
+    let c: Vec<String> = p
+        .com_std
+        .iter()
+        .zip(["x", "y", "z"])
+        .map(|(v, ax)| {
+            if v.is_nan() {
+                format!("{ax} n/a")
+            } else {
+                format!("{ax} {:.2}", v * 1000.0)
+            }
+        })
+        .collect();
     format!(
-        "Predicted 1σ (torque noise {sigma} Nm per joint, no model error): mass {:.4} kg, CoM [mm] x {:.2} y {:.2} z {:.2}, condition number {:.1}\n",
+        "Predicted 1σ (torque noise {sigma} Nm per joint, no model error): mass {:.4} kg, CoM [mm] {}, condition number {:.1}\n",
         p.mass_std,
-        p.com_std[0] * 1000.0,
-        p.com_std[1] * 1000.0,
-        p.com_std[2] * 1000.0,
+        c.join(" "),
         p.condition_number
     )
 }

@@ -12,7 +12,7 @@
 //! Joints whose regressor rows are zero in every sample (joint 1 of the LWR, eq. 41) carry no
 //! information and are dropped automatically.
 
-use dynamics::{Data, Model, payload_gravity_regressor};
+use dynamics::{Data, InertialParameters, Model, payload_gravity_regressor};
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix3x4, Matrix4, SMatrix, Vector3, Vector4};
 use serde::{Deserialize, Serialize};
 
@@ -105,6 +105,16 @@ pub struct PayloadEstimate {
     pub samples: usize,
     /// 1-based joints whose equations were used.
     pub joints_used: Vec<usize>,
+}
+
+impl PayloadEstimate {
+    /// The estimate as a point mass in the last DH frame (inertia about the CoM zero), the form
+    /// the gravity and collision models use (paper Sec. VI: inertia neglected). A CoM component
+    /// the data could not determine (NaN) is set to 0: it does not change the gravity torques.
+    pub fn to_point_mass(&self) -> InertialParameters {
+        let c = self.com.map(|v| if v.is_nan() { 0.0 } else { v });
+        InertialParameters::point_mass(self.mass, Vector3::from(c))
+    }
 }
 
 /// Estimates the payload from static samples with the chosen method (computes the gravity basis

@@ -32,4 +32,8 @@ pub mod samples;
 pub mod sim;
 
 pub use coefficients::{CoefficientEstimate, CoefficientSet};
+pub use correction::{Calibration, estimate_with_calibration, estimate_with_tare};
 pub use error::EstimatorError;
+pub use estimate::{Correction, EstimateOptions, Method, PayloadEstimate, estimate};
+pub use motion::{InertialEstimate, MotionOptions, Trajectory, Unloaded, estimate_motion};
+pub use samples::{StaticCheck, StaticSample};

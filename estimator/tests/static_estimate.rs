@@ -62,6 +62,8 @@ fn noise_free_without_model_error_is_exact_for_both_methods() {
         // flange 0.078 m along z7: CoM 0.041 m beyond the flange
         assert!((e.com_flange[2] - 0.041).abs() < 1e-9, "{:?}", e.com_flange);
         assert!(e.mass_std < 1e-9);
+        let pm = e.to_point_mass();
+        assert!((pm.first_moment - Vector3::new(0.0, 0.0, 3.028 * 0.119)).norm() < 1e-8);
     }
 }
 

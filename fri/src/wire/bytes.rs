@@ -156,3 +156,40 @@ pub(crate) fn widen<const N: usize>(v: [f32; N]) -> [f64; N] {
 pub(crate) fn widen_rows<const R: usize, const C: usize>(v: [[f32; C]; R]) -> [[f64; C]; R] {
     v.map(|row| row.map(f64::from))
 }
+
+/// Widens a decoded field to f64 after checking that every element is finite (one pass that
+/// vectorises; the element is searched only on failure).
+pub(crate) fn finite<const N: usize>(
+    v: [f32; N],
+    field: &'static str,
+) -> Result<[f64; N], super::WireError> {
+    if v.iter().fold(true, |ok, x| ok & x.is_finite()) {
+        Ok(widen(v))
+    } else {
+        let index = v.iter().position(|x| !x.is_finite()).unwrap_or(0);
+        Err(super::WireError::NonFinite { field, index })
+    }
+}
+
+/// [`finite`] for a scalar field.
+pub(crate) fn finite_scalar(v: f32, field: &'static str) -> Result<f64, super::WireError> {
+    if v.is_finite() {
+        Ok(f64::from(v))
+    } else {
+        Err(super::WireError::NonFinite { field, index: 0 })
+    }
+}
+
+/// [`finite`] for a row-major matrix field; the index is row-major.
+pub(crate) fn finite_rows<const R: usize, const C: usize>(
+    v: [[f32; C]; R],
+    field: &'static str,
+) -> Result<[[f64; C]; R], super::WireError> {
+    let flat = v.as_flattened();
+    if flat.iter().fold(true, |ok, x| ok & x.is_finite()) {
+        Ok(widen_rows(v))
+    } else {
+        let index = flat.iter().position(|x| !x.is_finite()).unwrap_or(0);
+        Err(super::WireError::NonFinite { field, index })
+    }
+}

@@ -153,24 +153,25 @@ impl Command {
     /// Decodes and validates a command datagram: exact length 376, `packetSize` 376,
     /// `datagramId` 0x1005, every float finite.
     pub fn parse(datagram: &[u8]) -> Result<Self, WireError> {
-        use bytes::{widen, widen_rows};
+        use bytes::{finite, finite_rows};
         let p = CommandPacket::new_checked(datagram)?;
-        p.check()?;
+        super::check_header(datagram, CMD_PACKET_SIZE, CMD_DATAGRAM_ID)?;
+        // Fields are decoded in table order, so the first non-finite one is reported.
         Ok(Self {
             header: Header {
                 send_seq_count: p.send_seq_count(),
                 refl_seq_count: p.refl_seq_count(),
             },
-            krl: super::parse_krl(datagram),
+            krl: super::parse_krl_checked(datagram)?,
             cmd_flags: p.cmd_flags(),
-            jnt_pos: widen(p.jnt_pos()),
-            cart_pos: widen_rows(p.cart_pos()),
-            add_jnt_trq: widen(p.add_jnt_trq()),
-            add_tcp_ft: widen(p.add_tcp_ft()),
-            jnt_stiffness: widen(p.jnt_stiffness()),
-            jnt_damping: widen(p.jnt_damping()),
-            cart_stiffness: widen(p.cart_stiffness()),
-            cart_damping: widen(p.cart_damping()),
+            jnt_pos: finite(p.jnt_pos(), "cmd.jntPos")?,
+            cart_pos: finite_rows(p.cart_pos(), "cmd.cartPos")?,
+            add_jnt_trq: finite(p.add_jnt_trq(), "cmd.addJntTrq")?,
+            add_tcp_ft: finite(p.add_tcp_ft(), "cmd.addTcpFT")?,
+            jnt_stiffness: finite(p.jnt_stiffness(), "cmd.jntStiffness")?,
+            jnt_damping: finite(p.jnt_damping(), "cmd.jntDamping")?,
+            cart_stiffness: finite(p.cart_stiffness(), "cmd.cartStiffness")?,
+            cart_damping: finite(p.cart_damping(), "cmd.cartDamping")?,
         })
     }
 

@@ -356,31 +356,33 @@ impl Measurement {
     /// `datagramId` 0x2006, every float finite. Unknown enum values are kept as `Unknown(raw)`.
     pub fn parse(datagram: &[u8]) -> Result<Self, WireError> {
         let p = MeasurementPacket::new_checked(datagram)?;
-        p.check()?;
-        Ok(Self::from_packet(&p))
-    }
-
-    /// Decodes a view that has already passed [`MeasurementPacket::check`].
-    fn from_packet<T: AsRef<[u8]>>(p: &MeasurementPacket<T>) -> Self {
-        use bytes::{widen, widen_rows};
-        Self {
+        super::check_header(datagram, MSR_PACKET_SIZE, MSR_DATAGRAM_ID)?;
+        // Fields are decoded in table order, so the first non-finite one is reported.
+        use bytes::{finite, finite_rows, finite_scalar as scalar};
+        Ok(Self {
             header: Header {
                 send_seq_count: p.send_seq_count(),
                 refl_seq_count: p.refl_seq_count(),
             },
-            krl: super::parse_krl(p.buffer.as_ref()),
+            krl: super::parse_krl_checked(datagram)?,
             interface: InterfaceInfo {
-                timestamp: f64::from(p.timestamp()),
+                timestamp: scalar(p.timestamp(), "intf.timestamp")?,
                 state: p.state(),
                 quality: p.quality(),
-                desired_msr_sample_time: f64::from(p.desired_msr_sample_time()),
-                desired_cmd_sample_time: f64::from(p.desired_cmd_sample_time()),
-                safety_limits: f64::from(p.safety_limits()),
+                desired_msr_sample_time: scalar(
+                    p.desired_msr_sample_time(),
+                    "intf.desiredMsrSampleTime",
+                )?,
+                desired_cmd_sample_time: scalar(
+                    p.desired_cmd_sample_time(),
+                    "intf.desiredCmdSampleTime",
+                )?,
+                safety_limits: scalar(p.safety_limits(), "intf.safetyLimits")?,
                 statistics: InterfaceStatistics {
-                    answer_rate: f64::from(p.answer_rate()),
-                    latency: f64::from(p.latency()),
-                    jitter: f64::from(p.jitter()),
-                    miss_rate: f64::from(p.miss_rate()),
+                    answer_rate: scalar(p.answer_rate(), "intf.stat.answerRate")?,
+                    latency: scalar(p.latency(), "intf.stat.latency")?,
+                    jitter: scalar(p.jitter(), "intf.stat.jitter")?,
+                    miss_rate: scalar(p.miss_rate(), "intf.stat.missRate")?,
                     miss_counter: p.miss_counter(),
                 },
             },
@@ -389,23 +391,29 @@ impl Measurement {
                 control: p.control(),
                 error: p.error(),
                 warning: p.warning(),
-                temperature: widen(p.temperature()),
+                temperature: finite(p.temperature(), "robot.temperature")?,
             },
             data: RobotData {
-                msr_jnt_pos: widen(p.msr_jnt_pos()),
-                msr_cart_pos: widen_rows(p.msr_cart_pos()),
-                cmd_jnt_pos: widen(p.cmd_jnt_pos()),
-                cmd_jnt_pos_fri_offset: widen(p.cmd_jnt_pos_fri_offset()),
-                cmd_cart_pos: widen_rows(p.cmd_cart_pos()),
-                cmd_cart_pos_fri_offset: widen_rows(p.cmd_cart_pos_fri_offset()),
-                msr_jnt_trq: widen(p.msr_jnt_trq()),
-                est_ext_jnt_trq: widen(p.est_ext_jnt_trq()),
-                est_ext_tcp_ft: widen(p.est_ext_tcp_ft()),
-                jacobian: widen_rows(p.jacobian()),
-                mass_matrix: widen_rows(p.mass_matrix()),
-                gravity: widen(p.gravity()),
+                msr_jnt_pos: finite(p.msr_jnt_pos(), "data.msrJntPos")?,
+                msr_cart_pos: finite_rows(p.msr_cart_pos(), "data.msrCartPos")?,
+                cmd_jnt_pos: finite(p.cmd_jnt_pos(), "data.cmdJntPos")?,
+                cmd_jnt_pos_fri_offset: finite(
+                    p.cmd_jnt_pos_fri_offset(),
+                    "data.cmdJntPosFriOffset",
+                )?,
+                cmd_cart_pos: finite_rows(p.cmd_cart_pos(), "data.cmdCartPos")?,
+                cmd_cart_pos_fri_offset: finite_rows(
+                    p.cmd_cart_pos_fri_offset(),
+                    "data.cmdCartPosFriOffset",
+                )?,
+                msr_jnt_trq: finite(p.msr_jnt_trq(), "data.msrJntTrq")?,
+                est_ext_jnt_trq: finite(p.est_ext_jnt_trq(), "data.estExtJntTrq")?,
+                est_ext_tcp_ft: finite(p.est_ext_tcp_ft(), "data.estExtTcpFT")?,
+                jacobian: finite_rows(p.jacobian(), "data.jacobian")?,
+                mass_matrix: finite_rows(p.mass_matrix(), "data.massMatrix")?,
+                gravity: finite(p.gravity(), "data.gravity")?,
             },
-        }
+        })
     }
 
     /// Encodes into a caller's buffer (no allocation), writing `packetSize` 916 and

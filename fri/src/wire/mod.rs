@@ -226,16 +226,6 @@ use f32_scalar_accessors;
 use header_and_krl_accessors;
 use header_and_krl_setters;
 
-/// Decodes the KRL block of a valid-length datagram into owned values.
-fn parse_krl(b: &[u8]) -> KrlData {
-    KrlData {
-        real: bytes::widen(bytes::read_f32s(b, field::krl::REAL_DATA)),
-        int: bytes::read_i32s(b, field::krl::INT_DATA),
-        bools: bytes::read_u16(b, field::krl::BOOL_DATA),
-        fill: bytes::read_u16(b, field::krl::FILL),
-    }
-}
-
 /// Encodes the header and KRL block into a datagram buffer.
 fn emit_header_and_krl(
     b: &mut [u8],
@@ -265,6 +255,15 @@ fn validate(
     floats: &[(&'static str, field::Field)],
 ) -> Result<(), WireError> {
     error::check_len(b.len(), len)?;
+    check_header(b, packet_size, datagram_id)?;
+    match bytes::first_non_finite(b, floats) {
+        Some((field, index)) => Err(WireError::NonFinite { field, index }),
+        None => Ok(()),
+    }
+}
+
+/// Checks `packetSize` and `datagramId` of a datagram whose length was already checked.
+fn check_header(b: &[u8], packet_size: u16, datagram_id: u16) -> Result<(), WireError> {
     let found = bytes::read_u16(b, field::header::PACKET_SIZE);
     if found != packet_size {
         return Err(WireError::WrongPacketSize {
@@ -279,8 +278,15 @@ fn validate(
             expected: datagram_id,
         });
     }
-    match bytes::first_non_finite(b, floats) {
-        Some((field, index)) => Err(WireError::NonFinite { field, index }),
-        None => Ok(()),
-    }
+    Ok(())
+}
+
+/// Decodes the KRL block, refusing non-finite reals.
+fn parse_krl_checked(b: &[u8]) -> Result<KrlData, WireError> {
+    Ok(KrlData {
+        real: bytes::finite(bytes::read_f32s(b, field::krl::REAL_DATA), "krl.realData")?,
+        int: bytes::read_i32s(b, field::krl::INT_DATA),
+        bools: bytes::read_u16(b, field::krl::BOOL_DATA),
+        fill: bytes::read_u16(b, field::krl::FILL),
+    })
 }

@@ -1,7 +1,8 @@
 //! The simulated controller on a UDP socket: real-time (wall-clock paced) or lockstep timing.
 //!
-//! - Real time: measurement k leaves at t0 + k·T; answers arriving before t0 + (k+1)·T count,
-//!   with their measured round-trip latency; later ones are stale (missed).
+//! - Real time: measurement k leaves at t0 + k·T; answers arriving before t0 + (k+1)·T (at
+//!   least T/2 after the actual send) count, with their measured round-trip latency; later ones
+//!   are stale (missed).
 //! - Lockstep: the next cycle starts as soon as the answer to the current measurement arrives,
 //!   or after `answer_timeout` (counted as a miss). Latency counts as zero, so runs are
 //!   deterministic given the remote's answers, and faster than real time.
@@ -186,7 +187,9 @@ pub fn run(
         let msr_seq = sim.measurement().header.send_seq_count;
         match config.mode {
             TimingMode::RealTime => {
-                let deadline = t0 + cycle * (k + 1);
+                // When this process was late to send (a non-real-time host), the remote still
+                // gets at least half a cycle to answer: misses should be the remote's.
+                let deadline = (t0 + cycle * (k + 1)).max(sent_at + cycle / 2);
                 while let Some((n, at)) = recv_until(socket, &mut buf, deadline) {
                     sim.submit_datagram(&buf[..n], (at - sent_at).as_secs_f64());
                 }

@@ -211,16 +211,26 @@ fn hook_and_queue_reach_the_reply() {
 
 #[test]
 fn queued_stale_datagrams_are_drained_and_only_the_newest_is_answered() {
-    // The hook stalls on the first cycle so that three more measurements queue up.
-    let hook = |state: &RobotState, _: &mut CycleOutput| {
-        if state.krc_sequence_counter() == 1 {
-            std::thread::sleep(Duration::from_millis(100));
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    // The hook stalls on the first cycle so that three more measurements queue up behind it.
+    let stalled = Arc::new(AtomicBool::new(false));
+    let hook = {
+        let stalled = Arc::clone(&stalled);
+        move |state: &RobotState, _: &mut CycleOutput| {
+            if state.krc_sequence_counter() == 1 {
+                stalled.store(true, Ordering::Release);
+                std::thread::sleep(Duration::from_millis(100));
+            }
         }
     };
     let endpoint = Endpoint::spawn(config(), hook).unwrap();
     let peer = Peer::new(endpoint.local_addr());
     peer.send(&measurement_datagram(1, 0));
-    std::thread::sleep(Duration::from_millis(20));
+    let deadline = Instant::now() + Duration::from_secs(5);
+    while !stalled.load(Ordering::Acquire) && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(1));
+    }
     for seq in 2..=4 {
         peer.send(&measurement_datagram(seq, 0));
     }

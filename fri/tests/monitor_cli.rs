@@ -47,7 +47,7 @@ fn start(extra: &[&str]) -> (Child, SocketAddr) {
 fn play_controller(target: SocketAddr, stop: Arc<AtomicBool>) -> u32 {
     let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
     socket
-        .set_read_timeout(Some(Duration::from_millis(200)))
+        .set_read_timeout(Some(Duration::from_secs(2)))
         .unwrap();
     let mut checked = 0;
     let mut ours = 0u16;

@@ -33,15 +33,10 @@ struct Args {
     #[arg(long)]
     payload_mass: Option<f64>,
     /// Payload centre of mass in frame 7, m: X,Y,Z.
-    #[arg(long, value_delimiter = ',', num_args = 3)]
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     payload_com: Option<Vec<f64>>,
     /// Initial joint angles, rad: Q1,..,Q7 (the arm rests there unless the scenario moves it).
-    #[arg(
-        long,
-        value_delimiter = ',',
-        num_args = 7,
-        allow_negative_numbers = true
-    )]
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     initial_q: Option<Vec<f64>>,
     /// White noise σ of the joint torque sensors, Nm.
     #[arg(long)]
@@ -91,8 +86,8 @@ fn build_config(args: &Args) -> Result<SimulationConfig> {
         config.cycle_ms = c;
     }
     if let Some(m) = args.payload_mass {
+        // The attach/detach timeline of the scenario stays as it is.
         config.payload.mass_kg = m;
-        config.payload.attached_at_start = m > 0.0;
     }
     if let Some(c) = &args.payload_com {
         let [x, y, z] = c[..] else {

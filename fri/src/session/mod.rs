@@ -17,6 +17,33 @@
 //!   value (set-point, torque) or a neutral one (0 torque, default gains, KRL value 0).
 //!
 //! Each correction is counted in [`LimitCounters`].
+//!
+//! ```
+//! use std::time::Instant;
+//! use fri::session::{DesiredCommand, Session, SessionConfig};
+//! use fri::wire::{CMD_LEN, CommandPacket, InterfaceState, MSR_LEN, Measurement, Quality};
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! // A monitor-mode measurement as the controller would send it.
+//! let mut m = Measurement::default();
+//! m.header.send_seq_count = 7;
+//! m.interface.state = InterfaceState::Monitor;
+//! m.interface.quality = Quality::Perfect;
+//! m.data.cmd_jnt_pos = [0.5; 7];
+//! m.data.cmd_jnt_pos_fri_offset = [0.25; 7];
+//! let mut datagram = [0u8; MSR_LEN];
+//! m.emit(&mut datagram)?;
+//!
+//! let mut session = Session::new(SessionConfig::default());
+//! let controller = "192.168.0.20:49938".parse()?;
+//! session.receive(&datagram, controller, Instant::now())?;
+//! let mut reply = [0u8; CMD_LEN];
+//! let info = session.respond(&DesiredCommand::default(), Instant::now(), &mut reply)?;
+//! assert_eq!(info.refl_seq_count, 7);
+//! // Not in command mode: the set-point mirrors cmdJntPos + cmdJntPosFriOffset.
+//! assert_eq!(CommandPacket::new_checked(&reply[..])?.jnt_pos(), [0.75; 7]);
+//! # Ok(())
+//! # }
+//! ```
 
 mod config;
 mod sequence;

@@ -18,6 +18,8 @@ pub struct Data<const N: usize> {
     pub(crate) acceleration: [Motion; N],
     /// Spatial force or momentum accumulator of link i in its own frame.
     pub(crate) force: [Force; N],
+    /// Joint motion subspaces S_j re-expressed in the frame of the link being processed.
+    pub(crate) axes: [Motion; N],
     /// Composite inertia of the subtree rooted at link i, in link frame i.
     pub(crate) composite: [InertialParameters; N],
 }
@@ -32,6 +34,7 @@ impl<const N: usize> Data<N> {
             velocity: [Motion::ZERO; N],
             acceleration: [Motion::ZERO; N],
             force: [Force::ZERO; N],
+            axes: [Motion::ZERO; N],
             composite: [InertialParameters::zero(); N],
         }
     }

@@ -76,23 +76,30 @@ fn body_gravity_regressor(a: &Vector3<f64>) -> [Force; 4] {
     ]
 }
 
-/// Projects the per-parameter link forces of link `body` onto the joint axes 0..=body, writing
-/// row j of `out` (torque of joint j per unit parameter).
+/// Moves the joint axes S_0..S_{b−1} (held in `data.axes`, expressed in link frame b−1) into link
+/// frame b and appends S_b, so that `data.axes[j]` is S_j in link frame b for all j ≤ b.
+#[inline]
+fn advance_axes<const N: usize>(model: &Model<N>, data: &mut Data<N>, b: usize) {
+    let pose = data.link_in_parent[b];
+    for axis in data.axes.iter_mut().take(b) {
+        *axis = pose.motion_to_child(axis);
+    }
+    data.axes[b] = *model.joints()[b].motion_subspace();
+}
+
+/// Row j of `out` = torque of joint j per unit of each parameter of link b: τ_j = S_jᵀ X f
+/// evaluated as (S_j in frame b) · f, which needs one motion transform per joint instead of one
+/// force transform per parameter and joint.
 #[inline]
 fn project_to_joints<const N: usize, const P: usize>(
-    model: &Model<N>,
     data: &Data<N>,
     body: usize,
-    mut forces: [Force; P],
+    forces: &[Force; P],
     out: &mut SMatrix<f64, N, P>,
 ) {
-    for j in (0..=body).rev() {
-        let s = model.joints()[j].motion_subspace();
-        for (c, f) in forces.iter_mut().enumerate() {
-            out[(j, c)] = s.dot(f);
-            if j > 0 {
-                *f = data.link_in_parent[j].force_to_parent(f);
-            }
+    for (j, axis) in data.axes.iter().enumerate().take(body + 1) {
+        for (c, f) in forces.iter().enumerate() {
+            out[(j, c)] = axis.dot(f);
         }
     }
 }
@@ -123,8 +130,9 @@ pub fn joint_torque_regressor<const N: usize>(
     forward_pass(model, data, q, qd, qdd);
     let mut blocks = [SMatrix::<f64, N, 10>::zeros(); N];
     for (b, block) in blocks.iter_mut().enumerate() {
+        advance_axes(model, data, b);
         let forces = body_regressor(&data.velocity[b], &data.acceleration[b]);
-        project_to_joints(model, data, b, forces, block);
+        project_to_joints(data, b, &forces, block);
     }
     blocks
 }
@@ -143,9 +151,12 @@ pub fn payload_regressor<const N: usize>(
         return out;
     }
     forward_pass(model, data, q, qd, qdd);
+    for b in 0..N {
+        advance_axes(model, data, b);
+    }
     let last = N - 1;
     let forces = body_regressor(&data.velocity[last], &data.acceleration[last]);
-    project_to_joints(model, data, last, forces, &mut out);
+    project_to_joints(data, last, &forces, &mut out);
     out
 }
 
@@ -159,8 +170,9 @@ pub fn gravity_regressor<const N: usize>(
     static_accelerations(model, data, q);
     let mut blocks = [SMatrix::<f64, N, 4>::zeros(); N];
     for (b, block) in blocks.iter_mut().enumerate() {
+        advance_axes(model, data, b);
         let forces = body_gravity_regressor(&data.acceleration[b].lin);
-        project_to_joints(model, data, b, forces, block);
+        project_to_joints(data, b, &forces, block);
     }
     blocks
 }
@@ -178,10 +190,11 @@ pub fn payload_gravity_regressor<const N: usize>(
     }
     update_link_poses(model, data, q);
     let mut a = -model.gravity();
-    for i in 0..N {
-        a = data.link_in_parent[i].rot.tr_mul(&a);
+    for b in 0..N {
+        a = data.link_in_parent[b].rot.tr_mul(&a);
+        advance_axes(model, data, b);
     }
     let forces = body_gravity_regressor(&a);
-    project_to_joints(model, data, N - 1, forces, &mut out);
+    project_to_joints(data, N - 1, &forces, &mut out);
     out
 }

@@ -5,9 +5,11 @@
 //! moves, iceoryx2 publication, the 1 kHz loop hook and the operator workflows.
 
 pub mod config;
+pub mod ctl;
 pub mod demo;
 pub mod ipc;
 pub mod motion;
+pub mod offline;
 pub mod operator;
 pub mod persistence;
 pub mod service;

@@ -4,6 +4,7 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use fri_service::ctl::{self, OperatorCommand};
 use fri_service::offline::{self, OfflineCommand};
 
 /// Command-line client of the KUKA LWR 4+ FRI service.
@@ -20,6 +21,9 @@ enum Group {
     /// Payload estimation and pose design on recorded files, without a robot.
     #[command(subcommand)]
     Offline(OfflineCommand),
+    /// Commands of the running service (status, estimate-payload, …), over its operator socket.
+    #[command(flatten)]
+    Operator(OperatorCommand),
 }
 
 fn main() -> ExitCode {
@@ -27,6 +31,8 @@ fn main() -> ExitCode {
     let mut stdout = std::io::stdout().lock();
     let result = match &cli.group {
         Group::Offline(cmd) => offline::run(cmd, &mut stdout),
+        // Operator commands choose their own exit codes (see `fri_service::ctl`).
+        Group::Operator(cmd) => return ctl::run(cmd),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

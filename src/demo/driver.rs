@@ -121,6 +121,19 @@ fn run(
     stop: Arc<AtomicBool>,
     counters: Arc<Counters>,
 ) -> Simulation {
+    if pacing == Pacing::RealTime {
+        // Best effort, like the service's endpoint: a real controller does not get preempted.
+        let param = libc::sched_param { sched_priority: 80 };
+        // SAFETY: pthread_self() is valid for the calling thread; `param` outlives the call.
+        let rc =
+            unsafe { libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param) };
+        if rc != 0 {
+            tracing::warn!(
+                rc,
+                "mock controller: SCHED_FIFO not permitted; timing may suffer"
+            );
+        }
+    }
     let period = Duration::from_secs_f64(sim.cycle_s());
     let timeout = match pacing {
         Pacing::Lockstep { timeout } => timeout,

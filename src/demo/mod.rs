@@ -2,3 +2,5 @@
 //! end-to-end tests.
 
 pub mod driver;
+pub mod plots;
+pub mod run;

@@ -26,6 +26,8 @@ use crate::persistence::{AppliedPayload, StateStore, StaticSample, Tare};
 
 /// Longest wait for the controller to enter command mode and start a move, s.
 const MOVE_START_TIMEOUT_S: f64 = 10.0;
+/// Moves re-driven after a loss of command mode before giving up.
+const MOVE_RETRIES: u32 = 3;
 /// Longest accepted move, s.
 const MOVE_TIMEOUT_S: f64 = 120.0;
 /// Largest distance of the measured position from the target after a move, rad.
@@ -144,6 +146,23 @@ impl ServiceCore {
                 "no measurement from the controller yet (is the KRL program running and FRI open?)",
             )
         })
+    }
+
+    /// The controller's view (KRL status, last drop reason, quality) for error messages.
+    fn fri_diagnosis(&self) -> String {
+        match &self.fri_state {
+            Some(f) => {
+                let s = f();
+                format!(
+                    "; controller: state {:?}, quality {:?}, KRL {:?}, last drop {:?}",
+                    s.measurement.interface.state,
+                    s.measurement.interface.quality,
+                    s.handshake.status,
+                    s.handshake.drop_reason
+                )
+            }
+            None => String::new(),
+        }
     }
 
     /// `status`.
@@ -305,9 +324,10 @@ impl ServiceCore {
         let mut states = self.shared.subscribe_states();
         let mut events = self.shared.subscribe_events();
         self.send(RtRequest::MoveTo(target))?;
-        let start = Instant::now();
+        let mut start = Instant::now();
         let mut seen_moving = false;
         let mut ended_at = None;
+        let mut retries = 0;
         loop {
             let timeout = if seen_moving {
                 MOVE_TIMEOUT_S
@@ -347,7 +367,20 @@ impl ServiceCore {
                 e = events.recv() => match e {
                     Ok(RtEvent::Collision(c)) => return Err(err(ErrorCode::Aborted, format!("collision detected (link {}) at {:.3} s", c.link, c.time_s))),
                     Ok(RtEvent::Stopped { collision, .. }) => return Err(err(ErrorCode::Aborted, if collision { "stopped by the collision reaction" } else { "stopped by the operator" })),
-                    Ok(RtEvent::MoveAborted { .. }) => return Err(err(ErrorCode::Aborted, "move aborted (command mode lost or stop)")),
+                    Ok(RtEvent::MoveAborted { .. }) => {
+                        let stopped = self.shared.latest().is_some_and(|s| s.flags & flags::STOPPED != 0);
+                        if stopped || retries >= MOVE_RETRIES {
+                            return Err(err(ErrorCode::Aborted, format!("move aborted (command mode lost or stop){}", self.fri_diagnosis())));
+                        }
+                        // Command mode was lost (e.g. a burst of missed answers): the loop
+                        // re-requests it; drive the move again from where the arm is.
+                        retries += 1;
+                        tracing::warn!(retries, diagnosis = %self.fri_diagnosis(), "command mode lost during a move; retrying");
+                        self.send(RtRequest::MoveTo(target))?;
+                        seen_moving = false;
+                        ended_at = None;
+                        start = Instant::now();
+                    }
                     _ => {}
                 },
                 _ = tokio::time::sleep_until(deadline) => {

@@ -1,0 +1,478 @@
+//! `fri-ctl` operator subcommands: one per operator-socket command, human-readable output with a
+//! progress bar on long operations, `--json` for scripts, and exit codes per error class.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+use clap::{Args, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::Value;
+
+use crate::config::DEFAULT_SOCKET;
+use crate::operator::client::Client;
+use crate::operator::protocol::{CollisionAction, Command, ErrorCode, OperatorError, RecordKind};
+
+/// Exit status: success.
+pub const EXIT_OK: u8 = 0;
+/// Exit status: the service could not be reached (not running, wrong `--socket`, permissions).
+pub const EXIT_UNREACHABLE: u8 = 2;
+/// Exit status: the command ran and failed (`failed`, `internal`).
+pub const EXIT_FAILED: u8 = 3;
+/// Exit status: aborted by a collision or an operator stop.
+pub const EXIT_ABORTED: u8 = 4;
+/// Exit status: the robot is not ready (no FRI connection, stopped, permission denied).
+pub const EXIT_NOT_READY: u8 = 5;
+/// Exit status: the service is busy (another workflow runs).
+pub const EXIT_BUSY: u8 = 6;
+/// Exit status: the request was rejected as invalid (EX_USAGE).
+pub const EXIT_USAGE: u8 = 64;
+
+/// Connection options shared by every operator subcommand.
+#[derive(Debug, Clone, Args)]
+pub struct Conn {
+    /// Operator socket of the service.
+    #[arg(long, default_value = DEFAULT_SOCKET)]
+    pub socket: PathBuf,
+    /// Print the raw JSON result (and events as JSON lines) instead of human-readable text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Collision-monitor actions on the command line.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum CollisionArg {
+    /// Show settings and state.
+    Show,
+    /// Arm the reaction.
+    Arm,
+    /// Disarm the reaction.
+    Disarm,
+    /// Change thresholds and/or gains.
+    Configure,
+}
+
+/// Record kinds on the command line.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum RecordArg {
+    /// Averaged static samples (static-sample CSV).
+    Samples,
+    /// Every cycle.
+    Log,
+}
+
+/// Operator commands of the running service.
+#[derive(Debug, Subcommand)]
+pub enum OperatorCommand {
+    /// FRI state and quality, statistics, measured state, residual, payload, monitor.
+    Status(Conn),
+    /// One averaged static sample at the current pose.
+    Sample {
+        /// Averaging window, s.
+        #[arg(long)]
+        duration: Option<f64>,
+        /// Connection options.
+        #[command(flatten)]
+        conn: Conn,
+    },
+    /// Drive the pose pattern without payload and store it as tare.
+    Tare {
+        /// Pose pattern.
+        #[command(flatten)]
+        pattern: PatternArgs,
+        /// Connection options.
+        #[command(flatten)]
+        conn: Conn,
+    },
+    /// Drive the pose pattern with the payload and estimate it (frame 7).
+    EstimatePayload {
+        /// Pose pattern.
+        #[command(flatten)]
+        pattern: PatternArgs,
+        /// Subtract the stored tare (default: when it matches the poses).
+        #[arg(long)]
+        tare: Option<bool>,
+        /// Apply the estimate to the observer and persist it.
+        #[arg(long)]
+        apply: bool,
+        /// Connection options.
+        #[command(flatten)]
+        conn: Conn,
+    },
+    /// Apply a payload to the observer (persisted).
+    ApplyPayload {
+        /// Mass, kg.
+        #[arg(long)]
+        mass: f64,
+        /// Centre of mass in frame 7, m: X,Y,Z.
+        #[arg(
+            long,
+            value_delimiter = ',',
+            num_args = 3,
+            allow_negative_numbers = true
+        )]
+        com: Vec<f64>,
+        /// Connection options.
+        #[command(flatten)]
+        conn: Conn,
+    },
+    /// Remove the applied payload (persisted).
+    ClearPayload(Conn),
+    /// Arm, disarm or tune the collision monitor.
+    Collision {
+        /// What to do.
+        action: CollisionArg,
+        /// Per-joint thresholds, Nm: 7 comma-separated values.
+        #[arg(long, value_delimiter = ',', num_args = 7)]
+        thresholds: Option<Vec<f64>>,
+        /// Per-joint observer gains, 1/s: 7 comma-separated values.
+        #[arg(long, value_delimiter = ',', num_args = 7)]
+        gains: Option<Vec<f64>>,
+        /// Connection options.
+        #[command(flatten)]
+        conn: Conn,
+    },
+    /// Stop: hold the position and abort any workflow.
+    Stop(Conn),
+    /// Resume after a stop or a collision reaction.
+    Resume(Conn),
+    /// Record static samples or a per-cycle log to CSV (written by the service).
+    Record {
+        /// Output CSV path (as seen by the service).
+        path: PathBuf,
+        /// What to record.
+        #[arg(long, value_enum, default_value = "log")]
+        kind: RecordArg,
+        /// Log length, s.
+        #[arg(long)]
+        duration: Option<f64>,
+        /// Number of static samples.
+        #[arg(long)]
+        count: Option<usize>,
+        /// Connection options.
+        #[command(flatten)]
+        conn: Conn,
+    },
+    /// Stream events until interrupted.
+    Watch {
+        /// Also print a state line every N cycles.
+        #[arg(long)]
+        state_every: Option<u32>,
+        /// Connection options.
+        #[command(flatten)]
+        conn: Conn,
+    },
+}
+
+/// Pose-pattern options of `tare` and `estimate-payload`.
+#[derive(Debug, Clone, Args)]
+pub struct PatternArgs {
+    /// Pick pose, rad: 7 comma-separated values (default: the current pose).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        num_args = 7,
+        allow_negative_numbers = true
+    )]
+    pub around: Option<Vec<f64>>,
+    /// Number of poses (default from the service config, 10).
+    #[arg(long)]
+    pub poses: Option<usize>,
+    /// Pattern increment, degrees (default 7).
+    #[arg(long)]
+    pub step_deg: Option<f64>,
+}
+
+fn arr7(v: &Option<Vec<f64>>) -> Option<[f64; 7]> {
+    v.as_ref()
+        .and_then(|v| <[f64; 7]>::try_from(v.as_slice()).ok())
+}
+
+impl OperatorCommand {
+    fn split(&self) -> (Command, &Conn) {
+        use OperatorCommand as O;
+        match self {
+            O::Status(c) => (Command::Status, c),
+            O::Sample { duration, conn } => (
+                Command::Sample {
+                    duration_s: *duration,
+                },
+                conn,
+            ),
+            O::Tare { pattern, conn } => (
+                Command::Tare {
+                    around: arr7(&pattern.around),
+                    poses: pattern.poses,
+                    step_deg: pattern.step_deg,
+                },
+                conn,
+            ),
+            O::EstimatePayload {
+                pattern,
+                tare,
+                apply,
+                conn,
+            } => (
+                Command::EstimatePayload {
+                    around: arr7(&pattern.around),
+                    poses: pattern.poses,
+                    step_deg: pattern.step_deg,
+                    use_tare: *tare,
+                    apply: Some(*apply),
+                },
+                conn,
+            ),
+            O::ApplyPayload { mass, com, conn } => (
+                Command::ApplyPayload {
+                    mass: *mass,
+                    com: [
+                        com.first().copied().unwrap_or(f64::NAN),
+                        com.get(1).copied().unwrap_or(f64::NAN),
+                        com.get(2).copied().unwrap_or(f64::NAN),
+                    ],
+                },
+                conn,
+            ),
+            O::ClearPayload(c) => (Command::ClearPayload, c),
+            O::Collision {
+                action,
+                thresholds,
+                gains,
+                conn,
+            } => (
+                Command::Collision {
+                    action: match action {
+                        CollisionArg::Show => CollisionAction::Show,
+                        CollisionArg::Arm => CollisionAction::Arm,
+                        CollisionArg::Disarm => CollisionAction::Disarm,
+                        CollisionArg::Configure => CollisionAction::Configure,
+                    },
+                    thresholds: arr7(thresholds),
+                    gains: arr7(gains),
+                },
+                conn,
+            ),
+            O::Stop(c) => (Command::Stop, c),
+            O::Resume(c) => (Command::Resume, c),
+            O::Record {
+                path,
+                kind,
+                duration,
+                count,
+                conn,
+            } => (
+                Command::Record {
+                    path: path.to_string_lossy().into_owned(),
+                    kind: match kind {
+                        RecordArg::Samples => RecordKind::Samples,
+                        RecordArg::Log => RecordKind::Log,
+                    },
+                    duration_s: *duration,
+                    count: *count,
+                },
+                conn,
+            ),
+            O::Watch { state_every, conn } => (
+                Command::Watch {
+                    state_every: *state_every,
+                },
+                conn,
+            ),
+        }
+    }
+}
+
+/// Exit status for an error reply.
+pub fn exit_code(e: &OperatorError) -> u8 {
+    match e.code {
+        ErrorCode::Aborted => EXIT_ABORTED,
+        ErrorCode::NotReady => EXIT_NOT_READY,
+        ErrorCode::Busy => EXIT_BUSY,
+        ErrorCode::Malformed
+        | ErrorCode::TooLarge
+        | ErrorCode::UnknownCommand
+        | ErrorCode::InvalidArguments => EXIT_USAGE,
+        ErrorCode::Failed | ErrorCode::Internal => EXIT_FAILED,
+    }
+}
+
+/// Runs one operator subcommand; returns the process exit code.
+pub fn run(cmd: &OperatorCommand) -> ExitCode {
+    let (command, conn) = cmd.split();
+    let runtime = match tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+    {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: cannot start the runtime: {e}");
+            return ExitCode::from(EXIT_FAILED);
+        }
+    };
+    ExitCode::from(runtime.block_on(run_async(command, conn)))
+}
+
+async fn run_async(command: Command, conn: &Conn) -> u8 {
+    let mut client = match Client::connect(&conn.socket).await {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!(
+                "error: cannot reach the service at {}: {e} (is fri-service running? see --socket)",
+                conn.socket.display()
+            );
+            return EXIT_UNREACHABLE;
+        }
+    };
+    let long = matches!(
+        command,
+        Command::Tare { .. } | Command::EstimatePayload { .. } | Command::Record { .. }
+    );
+    let bar = (long && !conn.json).then(|| {
+        let b = ProgressBar::new(0);
+        b.set_style(
+            ProgressStyle::with_template("{spinner} [{bar:30}] {pos}/{len} {msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        b.enable_steady_tick(Duration::from_millis(100));
+        b
+    });
+    let json = conn.json;
+    let is_watch = matches!(command, Command::Watch { .. });
+    let kind = command.clone();
+    let reply = client
+        .call(command, |event, data| {
+            if json {
+                println!("{}", serde_json::json!({"event": event, "data": data}));
+            } else if let Some(b) = &bar {
+                if let (Some(step), Some(of)) = (data["step"].as_u64(), data["of"].as_u64()) {
+                    b.set_length(of);
+                    b.set_position(step.saturating_sub(1) + u64::from(data["phase"] == "sampled"));
+                }
+                if let Some(p) = data["phase"].as_str() {
+                    b.set_message(p.to_owned());
+                }
+            } else if is_watch {
+                println!("{event}: {data}");
+            }
+        })
+        .await;
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    match reply {
+        Ok(Ok(result)) => {
+            if json {
+                println!("{result}");
+            } else {
+                print_human(&kind, &result);
+            }
+            EXIT_OK
+        }
+        Ok(Err(e)) => {
+            if json {
+                println!("{}", serde_json::json!({"error": e}));
+            } else {
+                eprintln!(
+                    "error ({}): {}",
+                    serde_json::to_value(e.code)
+                        .unwrap_or(Value::Null)
+                        .as_str()
+                        .unwrap_or("?"),
+                    e.message
+                );
+            }
+            exit_code(&e)
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            EXIT_UNREACHABLE
+        }
+    }
+}
+
+fn vec_str(v: &Value, digits: usize) -> String {
+    match v.as_array() {
+        Some(a) => a
+            .iter()
+            .map(|x| {
+                x.as_f64()
+                    .map_or("-".to_owned(), |f| format!("{f:+.digits$}"))
+            })
+            .collect::<Vec<_>>()
+            .join(" "),
+        None => "-".to_owned(),
+    }
+}
+
+fn print_human(command: &Command, r: &Value) {
+    match command {
+        Command::Status => {
+            println!("connected      {}", r["connected"]);
+            if let Some(f) = r["fri"].as_object() {
+                println!(
+                    "fri            state {} quality {} krl {} (last drop: {})",
+                    f["state"], f["quality"], f["krl_status"], f["drop_reason"]
+                );
+            }
+            println!("cycle          {}  t = {} s", r["cycle"], r["time_s"]);
+            println!("q        rad   {}", vec_str(&r["q"], 4));
+            println!("tau_J    Nm    {}", vec_str(&r["tau"], 3));
+            println!("gravity  Nm    {}", vec_str(&r["gravity"], 3));
+            println!("tau_ext  Nm    {}", vec_str(&r["tau_ext"], 3));
+            println!("residual Nm    {}", vec_str(&r["residual"], 3));
+            println!(
+                "flags          command_mode {} moving {} stopped {} collision {} observer_fault {}",
+                r["command_mode"], r["moving"], r["stopped"], r["collision"], r["observer_fault"]
+            );
+            match r["payload"].as_object() {
+                Some(p) => println!(
+                    "payload        {} kg at ({}) m, frame 7",
+                    p["mass"],
+                    vec_str(&p["com"], 4)
+                ),
+                None => println!("payload        none"),
+            }
+            println!(
+                "monitor        armed {} thresholds [{}] Nm",
+                r["monitor"]["armed"],
+                vec_str(&r["monitor"]["thresholds"], 1)
+            );
+        }
+        Command::EstimatePayload { .. } => {
+            let f = |k: &str| r[k].as_f64().unwrap_or(f64::NAN);
+            let c = |k: &str, i: usize| r[k][i].as_f64().unwrap_or(f64::NAN);
+            println!(
+                "mass  {:.4} ± {:.4} kg   ({} samples, tare {}, condition {:.1})",
+                f("mass"),
+                f("mass_std"),
+                r["samples"],
+                r["tare_used"],
+                f("condition_number")
+            );
+            println!(
+                "com   ({:+.4} ± {:.4}, {:+.4} ± {:.4}, {:+.4} ± {:.4}) m in frame 7",
+                c("com", 0),
+                c("com_std", 0),
+                c("com", 1),
+                c("com_std", 1),
+                c("com", 2),
+                c("com_std", 2)
+            );
+            println!(
+                "com   ({:+.4}, {:+.4}, {:+.4}) m in the flange frame",
+                c("com_flange", 0),
+                c("com_flange", 1),
+                c("com_flange", 2)
+            );
+            println!(
+                "{}",
+                if r["applied"] == true {
+                    "applied to the collision observer"
+                } else {
+                    "not applied (use --apply or `fri-ctl apply-payload`)"
+                }
+            );
+        }
+        _ => println!("{}", serde_json::to_string_pretty(r).unwrap_or_default()),
+    }
+}

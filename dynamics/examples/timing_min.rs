@@ -13,6 +13,9 @@ use dynamics::{
 };
 use nalgebra::SVector;
 
+#[path = "../benches/naive_lagrangian.rs"]
+mod naive_lagrangian;
+
 fn min_ns(mut f: impl FnMut()) -> f64 {
     const BATCH: u32 = 2000;
     let mut best = f64::INFINITY;
@@ -35,7 +38,7 @@ fn main() {
     let tau = rnea(&model, &mut data, &q, &qd, &qdd);
     let d = &mut data;
     let m = &model;
-    let rows: [(&str, f64); 11] = [
+    let rows: [(&str, f64); 12] = [
         (
             "rnea",
             min_ns(|| {
@@ -94,6 +97,12 @@ fn main() {
             "forward_dynamics",
             min_ns(|| {
                 black_box(forward_dynamics(m, d, black_box(&q), &qd, &tau).ok());
+            }),
+        ),
+        (
+            "yardstick: naive Jacobian-sum M and g",
+            min_ns(|| {
+                black_box(naive_lagrangian::naive_mass_and_gravity(m, black_box(&q)));
             }),
         ),
         (

@@ -282,3 +282,33 @@ fn classical_and_modified_dh_give_identical_payload_estimates() {
     assert!((p_dh[0] - 3.028).abs() < 1e-12);
     assert!((p_dh[3] - 3.028 * 0.119).abs() < 1e-12);
 }
+
+/// FK is the chain of the joints' public `link_pose`; at q = 0 the LWR points straight up with the
+/// flange 0.4 + 0.39 + 0.078 m above frame 0.
+#[test]
+fn forward_kinematics_is_the_chain_of_link_poses() {
+    let model = lwr4();
+    let mut data = Data::new(&model);
+    let q = SVector::<f64, 7>::from([0.4, -0.7, 1.1, 0.3, -1.9, 0.8, 2.2]);
+    let frames = forward_kinematics(&model, &mut data, &q);
+    let mut chained = nalgebra::Isometry3::identity();
+    for (i, joint) in model.joints().iter().enumerate() {
+        chained *= joint.link_pose(q[i]);
+        assert!(
+            (chained.to_homogeneous() - frames[i].to_homogeneous())
+                .abs()
+                .max()
+                < 1e-14
+        );
+    }
+    let zero = dynamics::flange_pose(&model, &mut data, &SVector::zeros());
+    assert!((zero.translation.vector - Vector3::new(0.0, 0.0, 0.868)).norm() < 1e-15);
+    assert!(zero.rotation.angle() < 1e-15);
+    // Frames 5, 6, 7 share the wrist point; frames 3 and 4 the elbow.
+    let frames = forward_kinematics(&model, &mut data, &q);
+    assert!((frames[4].translation.vector - frames[6].translation.vector).norm() < 1e-15);
+    assert!((frames[2].translation.vector - frames[3].translation.vector).norm() < 1e-15);
+    assert!(
+        ((frames[4].translation.vector - frames[2].translation.vector).norm() - 0.39).abs() < 1e-14
+    );
+}

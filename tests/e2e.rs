@@ -217,3 +217,237 @@ async fn tare_then_estimate_through_the_socket_and_persist_after_restart() {
     assert_eq!(status["tare_samples"], 6);
     h.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn collision_during_a_workflow_stops_the_arm_and_aborts() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut config = test_config(dir.path());
+    config.observer.armed = true;
+    config.reaction.policy = fri_service::config::ReactionPolicy::Stop;
+    let h = Harness::start(config, dir).await;
+    let mut sim_config = sim(false, 3);
+    // A push on link 4 while the pattern is running (it starts ≈ 0.2 s into the run).
+    sim_config.contacts = vec![mock_robot::contact::ContactSpec {
+        link: 4,
+        point_m: [0.0, 0.0, 0.0],
+        onset_s: 1.2,
+        profile: mock_robot::contact::ContactProfile::HalfSine {
+            peak_force_n: [0.0, 80.0, 0.0],
+            duration_s: 0.3,
+        },
+    }];
+    let driver = MockDriver::spawn(sim_config, h.fri, lockstep()).unwrap();
+    let mut c = h.client().await;
+    wait_connected(&mut c).await;
+    let mut watcher = h.client().await;
+    let events = std::sync::Arc::new(std::sync::Mutex::new(Vec::<(String, Value)>::new()));
+    let ev = events.clone();
+    let watch = tokio::spawn(async move {
+        let _ = watcher
+            .call(Command::Watch { state_every: None }, |e, d| {
+                ev.lock().unwrap().push((e.to_owned(), d.clone()));
+            })
+            .await;
+    });
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    let e = call(
+        &mut c,
+        Command::Tare {
+            around: None,
+            poses: Some(6),
+            step_deg: Some(7.0),
+        },
+    )
+    .await
+    .unwrap_err();
+    assert_eq!(
+        e.code,
+        fri_service::operator::protocol::ErrorCode::Aborted,
+        "{e:?}"
+    );
+    let status = call(&mut c, Command::Status).await.unwrap();
+    assert_eq!(status["stopped"], true, "{status}");
+    // A move is refused while stopped.
+    let e = call(
+        &mut c,
+        Command::Tare {
+            around: None,
+            poses: Some(2),
+            step_deg: Some(7.0),
+        },
+    )
+    .await
+    .unwrap_err();
+    assert_eq!(
+        e.code,
+        fri_service::operator::protocol::ErrorCode::NotReady,
+        "{e:?}"
+    );
+    {
+        let evs = events.lock().unwrap();
+        let collision = evs
+            .iter()
+            .find(|(e, _)| e == "collision")
+            .expect("collision event");
+        let t = collision.1["time_s"].as_f64().unwrap();
+        assert!(t > 1.2 && t < 1.4, "detected at {t}");
+        assert!(
+            evs.iter()
+                .any(|(e, d)| e == "stopped" && d["reason"] == "collision")
+        );
+    }
+    // Resume clears the stop once the contact is gone.
+    call(&mut c, Command::Resume).await.unwrap();
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let status = call(&mut c, Command::Status).await.unwrap();
+    assert_eq!(status["stopped"], false, "{status}");
+    watch.abort();
+    drop(driver.stop());
+    h.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn loss_bursts_and_a_controller_restart_are_survived() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut config = test_config(dir.path());
+    config.observer.armed = false;
+    let h = Harness::start(config, dir).await;
+    let mut sim_config = sim(false, 5);
+    sim_config.network.bursts = vec![
+        mock_robot::faults::LossBurst {
+            start_s: 0.2,
+            duration_s: 0.05,
+        },
+        // Inside the first moves: command mode is dropped (answers missed) and re-entered.
+        mock_robot::faults::LossBurst {
+            start_s: 1.6,
+            duration_s: 0.03,
+        },
+    ];
+    sim_config.restarts_s = vec![0.6];
+    let driver = MockDriver::spawn(sim_config, h.fri, lockstep()).unwrap();
+    let mut c = h.client().await;
+    wait_connected(&mut c).await;
+    while driver.cycles() < 1000 {
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    let tare = call(
+        &mut c,
+        Command::Tare {
+            around: None,
+            poses: Some(3),
+            step_deg: Some(5.0),
+        },
+    )
+    .await
+    .unwrap();
+    assert_eq!(tare["samples"], 3);
+    let status = call(&mut c, Command::Status).await.unwrap();
+    let seq = &status["fri"]["statistics"]["sequence"];
+    eprintln!("sequence counters after faults: {seq}");
+    assert!(seq["restarted"].as_u64().unwrap() >= 1, "{seq}");
+    let sim = driver.stop().unwrap();
+    let rc = sim.receive_counters();
+    eprintln!("controller receive counters: {rc:?}");
+    // The bursts cost answers (the controller counted them as missed) and the service carried on.
+    assert!(rc.missed_cycles >= 50, "{rc:?}");
+    assert!(rc.restarts >= 1, "{rc:?}");
+    h.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn malformed_operator_input_never_disturbs_the_loop() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = test_config(dir.path());
+    let h = Harness::start(config, dir).await;
+    let driver = MockDriver::spawn(sim(false, 9), h.fri, lockstep()).unwrap();
+    let mut c = h.client().await;
+    let before = wait_connected(&mut c).await["cycle"].as_u64().unwrap();
+    let mut raw = h.client().await;
+    let mut junk: Vec<u8> = Vec::new();
+    junk.extend_from_slice(b"{\"id\":1,\"cmd\":\"status\"\n"); // truncated JSON
+    junk.extend_from_slice(b"\x00\x01\x02\n");
+    junk.extend_from_slice(&vec![b'A'; 200_000]);
+    junk.extend_from_slice(b"\n{\"id\":2,\"cmd\":\"apply-payload\",\"mass\":-5,\"com\":[0,0,0]}\n");
+    junk.extend_from_slice(b"{\"id\":3,\"cmd\":\"collision\",\"action\":\"configure\",\"thresholds\":[1,1,1,1,1,1,-1]}\n");
+    junk.extend_from_slice(b"{\"id\":4,\"cmd\":\"self-destruct\"}\n");
+    raw.send_raw(&junk).await.unwrap();
+    let mut codes = Vec::new();
+    for _ in 0..6 {
+        match raw.next_reply().await.unwrap() {
+            fri_service::operator::protocol::Reply::Err { error, .. } => codes.push(error.code),
+            other => panic!("unexpected {other:?}"),
+        }
+    }
+    use fri_service::operator::protocol::ErrorCode as E;
+    // Valid requests run concurrently, so replies may come in any order.
+    let mut expected = vec![
+        E::Malformed,
+        E::Malformed,
+        E::TooLarge,
+        E::InvalidArguments,
+        E::InvalidArguments,
+        E::UnknownCommand,
+    ];
+    let key = |c: &E| format!("{c:?}");
+    codes.sort_by_key(key);
+    expected.sort_by_key(key);
+    assert_eq!(codes, expected);
+    // The loop kept running and the payload was not changed.
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    let status = call(&mut c, Command::Status).await.unwrap();
+    assert!(status["cycle"].as_u64().unwrap() > before);
+    assert!(status["payload"].is_null());
+    assert_eq!(status["monitor"]["thresholds"][6], 6.0);
+    drop(driver.stop());
+    h.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn iceoryx2_subscriber_receives_the_service_state() {
+    use fri_service::ipc::publisher::open_service;
+    use fri_service::ipc::{IpcNames, RobotState};
+    let dir = tempfile::tempdir().unwrap();
+    let config = test_config(dir.path());
+    let names = IpcNames {
+        service_prefix: config.iceoryx2.service_prefix.clone(),
+        global_prefix: config.iceoryx2.global_prefix.clone(),
+    };
+    let h = Harness::start(config, dir).await;
+    let driver = MockDriver::spawn(sim(false, 11), h.fri, lockstep()).unwrap();
+    let mut c = h.client().await;
+    wait_connected(&mut c).await;
+    // iceoryx2 ports are not Send: subscribe on a plain thread.
+    let received = std::thread::spawn(move || {
+        let node = names.node().unwrap();
+        let sub = open_service::<RobotState>(&node, &names.state(), 1)
+            .unwrap()
+            .subscriber_builder()
+            .create()
+            .unwrap();
+        let mut got = Vec::new();
+        let t0 = std::time::Instant::now();
+        while got.len() < 50 && t0.elapsed() < Duration::from_secs(20) {
+            while let Some(s) = sub.receive().unwrap() {
+                got.push(*s.payload());
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        got
+    })
+    .join()
+    .unwrap();
+    assert!(received.len() >= 50, "received {}", received.len());
+    assert!(received.windows(2).all(|w| w[1].cycle > w[0].cycle));
+    let last = received.last().unwrap();
+    // At rest at the mock's initial pose (deg 0, 30, 0, -60, 0, 60, 0).
+    assert!(
+        (last.q[1] - 30f64.to_radians()).abs() < 0.01,
+        "{:?}",
+        last.q
+    );
+    assert_eq!(last.fri_state, 1);
+    assert!(last.gravity[1].abs() > 1.0);
+    drop(driver.stop());
+    h.stop().await;
+}

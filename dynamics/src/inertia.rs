@@ -113,13 +113,15 @@ impl InertialParameters {
     /// `rotation`, origin `translation` in m): c_F = R·c + p, J moved with Steiner.
     pub fn transformed(&self, rotation: &Matrix3<f64>, translation: &Vector3<f64>) -> Self {
         let h_rot = rotation * self.first_moment;
-        let sp = skew(translation);
-        let sh = skew(&h_rot);
-        // J_F = R J Rᵀ − m S(p)² − S(p)S(Rh) − S(Rh)S(p)
+        let p = translation;
+        // J_F = R J Rᵀ − m S(p)² − S(p)S(Rh) − S(Rh)S(p), with S(a)S(b) = b aᵀ − (a·b) 1:
+        //     = R J Rᵀ + m(|p|² 1 − p pᵀ) + 2 (p·Rh) 1 − Rh pᵀ − p (Rh)ᵀ
+        let diagonal = self.mass * p.norm_squared() + 2.0 * p.dot(&h_rot);
         let inertia = rotation * self.inertia_origin * rotation.transpose()
-            - sp * sp * self.mass
-            - sp * sh
-            - sh * sp;
+            + Matrix3::from_diagonal_element(diagonal)
+            - p * p.transpose() * self.mass
+            - h_rot * p.transpose()
+            - p * h_rot.transpose();
         Self {
             mass: self.mass,
             first_moment: translation * self.mass + h_rot,

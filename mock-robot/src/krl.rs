@@ -13,19 +13,19 @@ use crate::sensors::JointVector;
 use crate::stats::Quality;
 
 /// Index of the request code in `cmd.krl.intData`.
-pub const REQUEST_INDEX: usize = 15;
+pub const REQUEST_INDEX: usize = fri::handshake::REQUEST_INDEX;
 /// Index of the requested strategy in `cmd.krl.intData`.
-pub const STRATEGY_INDEX: usize = 14;
+pub const STRATEGY_INDEX: usize = fri::handshake::REQUEST_STRATEGY_INDEX;
 /// Index of the request id in `cmd.krl.intData`.
-pub const REQUEST_ID_INDEX: usize = 13;
+pub const REQUEST_ID_INDEX: usize = fri::handshake::REQUEST_ID_INDEX;
 /// Index of the status in `msr.krl.intData`.
-pub const STATUS_INDEX: usize = 15;
+pub const STATUS_INDEX: usize = fri::handshake::STATUS_INDEX;
 /// Index of the active strategy in `msr.krl.intData`.
-pub const ACTIVE_STRATEGY_INDEX: usize = 14;
+pub const ACTIVE_STRATEGY_INDEX: usize = fri::handshake::ACTIVE_STRATEGY_INDEX;
 /// Index of the acknowledged request id in `msr.krl.intData`.
-pub const ACK_INDEX: usize = 13;
+pub const ACK_INDEX: usize = fri::handshake::ACK_ID_INDEX;
 /// Index of the drop reason in `msr.krl.intData`.
-pub const REASON_INDEX: usize = 12;
+pub const REASON_INDEX: usize = fri::handshake::DROP_REASON_INDEX;
 
 /// Request: start command mode.
 pub const REQUEST_START: i32 = 10;
@@ -653,6 +653,49 @@ mod tests {
         let c3 = request(&(q + step * 3.0), FLAGS_POSITION, 0, 10, 1);
         assert_eq!(p.step(Some(&c3), Quality::Perfect, &q), None);
         assert_eq!(p.state(), FriState::Command);
+    }
+
+    #[test]
+    fn codes_agree_with_fri_handshake() {
+        use fri::handshake::{DropReason as Wire, KrlStatus, KrlStrategy, RequestKind};
+        let pairs = [
+            (DropReason::QualityTooLow, Wire::QualityTooLow),
+            (DropReason::AnswersMissed, Wire::AnswersMissed),
+            (DropReason::SetPointNotMirrored, Wire::SetPointNotMirrored),
+            (DropReason::FlagsChanged, Wire::CommandFlagsChanged),
+            (DropReason::SetPointJump, Wire::SetPointJump),
+            (
+                DropReason::AddedTorqueNotInitialised,
+                Wire::AddedTorqueNotInitialised,
+            ),
+            (DropReason::StrategyNotSupported, Wire::StrategyNotSupported),
+            (DropReason::OperatorStop, Wire::OperatorStop),
+        ];
+        for (ours, wire) in pairs {
+            assert_eq!(ours.code(), wire.to_raw());
+        }
+        assert_eq!(REQUEST_START, RequestKind::StartCommandMode.to_raw());
+        assert_eq!(REQUEST_STOP, RequestKind::StopCommandMode.to_raw());
+        assert_eq!(REQUEST_CLOSE, RequestKind::Close.to_raw());
+        assert_eq!(STATUS_MONITOR, KrlStatus::MonitorReady.to_raw());
+        assert_eq!(STATUS_COMMAND, KrlStatus::CommandActive.to_raw());
+        assert_eq!(STATUS_CLOSED, KrlStatus::Closed.to_raw());
+        assert_eq!(
+            Strategy::Position.krl_code(),
+            KrlStrategy::JointPosition.to_raw()
+        );
+        assert_eq!(
+            Strategy::JointImpedance.krl_code(),
+            KrlStrategy::JointImpedance.to_raw()
+        );
+        assert_eq!(
+            Strategy::JointImpedance.required_flags(),
+            KrlStrategy::JointImpedance.command_flags().bits()
+        );
+        assert_eq!(
+            Strategy::Position.required_flags(),
+            KrlStrategy::JointPosition.command_flags().bits()
+        );
     }
 
     #[test]

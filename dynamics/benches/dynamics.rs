@@ -17,7 +17,7 @@ use dynamics::{
 };
 use nalgebra::SVector;
 
-#[path = "naive_lagrangian.rs"]
+#[path = "support/naive_lagrangian.rs"]
 mod naive_lagrangian;
 use naive_lagrangian::naive_mass_and_gravity;
 

@@ -13,7 +13,7 @@ use dynamics::{
 };
 use nalgebra::SVector;
 
-#[path = "../benches/naive_lagrangian.rs"]
+#[path = "../benches/support/naive_lagrangian.rs"]
 mod naive_lagrangian;
 
 fn min_ns(mut f: impl FnMut()) -> f64 {

@@ -4,8 +4,8 @@
 //! (for the demo and soak runs).
 
 use std::net::{SocketAddr, UdpSocket};
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -31,9 +31,15 @@ pub struct DriverStats {
     pub sent: u64,
     /// Answers received in time.
     pub answered: u64,
-    /// Cycles without an answer in time.
+    /// Cycles without an answer within the timeout.
     pub missed: u64,
+    /// Answers received after the controller cycle had ended (real time only; the controller
+    /// counts them as missed).
+    pub late: u64,
 }
+
+/// Round trips kept for the latency figures (10 min at 1 kHz).
+const MAX_LATENCIES: usize = 600_000;
 
 /// Shared counters of a running driver.
 #[derive(Debug, Default)]
@@ -41,6 +47,7 @@ struct Counters {
     sent: AtomicU64,
     answered: AtomicU64,
     missed: AtomicU64,
+    late: AtomicU64,
     sim_cycles: AtomicU64,
 }
 
@@ -51,6 +58,7 @@ pub struct MockDriver {
     counters: Arc<Counters>,
     thread: Option<JoinHandle<Simulation>>,
     local: SocketAddr,
+    latencies: Arc<Mutex<Vec<f64>>>,
 }
 
 impl MockDriver {
@@ -65,16 +73,18 @@ impl MockDriver {
         let local = socket.local_addr().map_err(SimError::from)?;
         let stop = Arc::new(AtomicBool::new(false));
         let counters = Arc::new(Counters::default());
-        let (s, c) = (stop.clone(), counters.clone());
+        let latencies = Arc::new(Mutex::new(Vec::new()));
+        let (s, c, l) = (stop.clone(), counters.clone(), latencies.clone());
         let thread = std::thread::Builder::new()
             .name("mock-controller".into())
-            .spawn(move || run(sim, socket, service, pacing, s, c))
+            .spawn(move || run(sim, socket, service, pacing, s, c, l))
             .map_err(SimError::from)?;
         Ok(Self {
             stop,
             counters,
             thread: Some(thread),
             local,
+            latencies,
         })
     }
 
@@ -89,7 +99,13 @@ impl MockDriver {
             sent: self.counters.sent.load(Ordering::Relaxed),
             answered: self.counters.answered.load(Ordering::Relaxed),
             missed: self.counters.missed.load(Ordering::Relaxed),
+            late: self.counters.late.load(Ordering::Relaxed),
         }
+    }
+
+    /// Measured round trips (measurement sent → answer received) so far, s.
+    pub fn latencies(&self) -> Vec<f64> {
+        self.latencies.lock().map(|l| l.clone()).unwrap_or_default()
     }
 
     /// Simulated time so far, in cycles.
@@ -120,6 +136,7 @@ fn run(
     pacing: Pacing,
     stop: Arc<AtomicBool>,
     counters: Arc<Counters>,
+    latencies: Arc<Mutex<Vec<f64>>>,
 ) -> Simulation {
     if pacing == Pacing::RealTime {
         // Best effort, like the service's endpoint: a real controller does not get preempted.
@@ -151,6 +168,7 @@ fn run(
         }
         let deadline = sent_at + timeout;
         let mut answer: Option<Command> = None;
+        let mut latency_s = 0.0;
         loop {
             let now = Instant::now();
             if now >= deadline {
@@ -160,6 +178,7 @@ fn run(
             match socket.recv_from(&mut buf) {
                 Ok((n, from)) if from == service && n == CMD_LEN => {
                     if let Ok(c) = Command::parse(&buf[..n]) {
+                        latency_s = sent_at.elapsed().as_secs_f64();
                         answer = Some(c);
                         break;
                     }
@@ -168,12 +187,28 @@ fn run(
                 Err(_) => break,
             }
         }
-        if answer.is_some() {
+        // In real time an answer later than the cycle is a miss for the controller too.
+        let late = pacing == Pacing::RealTime && latency_s > sim.cycle_s();
+        if late {
+            counters.late.fetch_add(1, Ordering::Relaxed);
+        }
+        if let Some(cmd) = &answer {
             counters.answered.fetch_add(1, Ordering::Relaxed);
+            if let Ok(mut l) = latencies.lock()
+                && l.len() < MAX_LATENCIES
+            {
+                l.push(latency_s);
+            }
+            // Hand the answer over with its measured round trip, so the controller's
+            // statistics (answer rate, latency, jitter) are those of the real exchange.
+            let mut bytes = [0u8; CMD_LEN];
+            if cmd.emit(&mut bytes).is_ok() {
+                sim.submit_datagram(&bytes, latency_s);
+            }
         } else {
             counters.missed.fetch_add(1, Ordering::Relaxed);
         }
-        sim.step_cycle(answer.as_ref());
+        sim.advance();
         counters.sim_cycles.fetch_add(1, Ordering::Relaxed);
         if pacing == Pacing::RealTime {
             next += period;

@@ -8,6 +8,7 @@
 //! queue read with `try_recv` by the processor.
 
 pub mod core;
+pub mod cyclekit;
 pub mod fanout;
 pub mod handler;
 pub mod pattern;

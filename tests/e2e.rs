@@ -20,7 +20,7 @@ static NEXT: AtomicU32 = AtomicU32::new(0);
 
 struct Harness {
     dir: tempfile::TempDir,
-    service: Option<RunningService>,
+    service: Option<std::sync::Arc<RunningService>>,
     shutdown: watch::Sender<bool>,
     socket: PathBuf,
     fri: SocketAddr,
@@ -52,12 +52,12 @@ fn test_config(dir: &std::path::Path) -> Config {
 impl Harness {
     async fn start(config: Config, dir: tempfile::TempDir) -> Self {
         let socket = config.operator.socket.clone();
-        let service = RunningService::start(config).unwrap();
+        let service = std::sync::Arc::new(RunningService::start(config).unwrap());
         let fri = service.fri_addr().unwrap();
         let (shutdown, rx) = watch::channel(false);
-        let core_service = unsafe_static(&service);
+        let serving = service.clone();
         let server = tokio::spawn(async move {
-            core_service.serve_operator(rx).await.unwrap();
+            serving.serve_operator(rx).await.unwrap();
         });
         // Wait for the socket.
         for _ in 0..200 {
@@ -86,17 +86,13 @@ impl Harness {
             s.await.unwrap();
         }
         if let Some(s) = self.service.take() {
-            s.shutdown();
+            match std::sync::Arc::try_unwrap(s) {
+                Ok(s) => s.shutdown(),
+                Err(_) => panic!("service still shared after the server stopped"),
+            }
         }
         self.dir
     }
-}
-
-/// The operator server borrows the service for the test's lifetime.
-fn unsafe_static(s: &RunningService) -> &'static RunningService {
-    // SAFETY: every test awaits the server task (in `Harness::stop`) before dropping the
-    // service, so the reference never outlives it.
-    unsafe { &*(s as *const RunningService) }
 }
 
 fn sim(payload: bool, seed: u64) -> SimulationConfig {

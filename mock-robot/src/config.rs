@@ -337,7 +337,7 @@ impl Default for FrictionSpec {
         Self {
             coulomb_nm: [11.9, 11.5, 8.98, 8.35, 8.31, 4.72, 6.04],
             viscous_nms_per_rad: [14.4, 15.3, 6.55, 11.0, 4.29, 2.26, 1.6],
-            smoothing_rad_per_s: 0.01,
+            smoothing_rad_per_s: 0.05,
             // Joints 3..7 from Jubien 2014; joints 1 and 2 are grouped there (ZZ1R = 3.20,
             // ZZ2R = 4.46 include link inertia), so 3.0 is an estimate of the rotor share.
             rotor_inertia_kgm2: [3.0, 3.0, 2.01, 1.92, 0.776, 0.391, 0.399],
@@ -426,7 +426,7 @@ pub struct ControlSpec {
 impl Default for ControlSpec {
     fn default() -> Self {
         Self {
-            position_bandwidth_rad_s: 60.0,
+            position_bandwidth_rad_s: 100.0,
             position_integral_per_s: 20.0,
             default_stiffness_nm_per_rad: [1000.0; JOINTS],
             default_damping: [0.7; JOINTS],

@@ -177,3 +177,29 @@ fn half_sine_contact_enters_as_jacobian_transpose_force() {
     );
     let _ = KrlStrategy::JointPosition;
 }
+
+#[test]
+fn arm_settles_at_a_static_pose_after_a_ptp_with_payload() {
+    let text = r#"
+        initial_q_deg = [0, 30, 0, -60, 0, 60, 0]
+        [[motion]]
+        kind = "ptp"
+        q_deg = [10, 40, -5, -50, 5, 50, 10]
+        duration_s = 0.6
+        [[motion]]
+        kind = "dwell"
+        duration_s = 2.0
+    "#;
+    let mut sim = Simulation::new(SimulationConfig::from_toml_str(text).unwrap()).unwrap();
+    let mut client = Client::new();
+    client.run(&mut sim, 2000);
+    let target =
+        V7::from_row_slice(&[10.0, 40.0, -5.0, -50.0, 5.0, 50.0, 10.0]).map(f64::to_radians);
+    // 1.4 s after the move: at rest on the target despite friction and the undeclared payload.
+    assert!(
+        sim.qd().amax() < 1e-5,
+        "still moving: {:e}",
+        sim.qd().amax()
+    );
+    assert!((sim.q() - target).amax() < 1e-4, "{:?}", sim.q() - target);
+}

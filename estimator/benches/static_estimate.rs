@@ -44,7 +44,7 @@ fn bench(c: &mut Criterion) {
         b.iter(|| estimate_coefficients(&model, &basis, black_box(&s500), &opts).unwrap())
     });
     c.bench_function("gravity_basis/lwr4", |b| {
-        b.iter(|| GravityBasis::of_model(black_box(&model)))
+        b.iter(|| GravityBasis::compute(black_box(&model)))
     });
     let nominal = Nominal::default();
     c.bench_function("poses_optimize/10_of_300_candidates", |b| {

@@ -63,8 +63,15 @@ impl GravityBasis {
         self.independent.is_empty()
     }
 
-    /// Computes the basis of `model` from 8·4N spread poses within the joint limits.
+    /// The basis of `model` (as [`GravityBasis::compute`]), remembered for the last few robot
+    /// structures: the basis depends only on joints, gravity and joint limits, and recomputing it
+    /// (a 224 × 28 column selection for the LWR) dominated every calibrated estimate.
     pub fn of_model<const N: usize>(model: &Model<N>) -> Self {
+        memo::basis_of(model)
+    }
+
+    /// Computes the basis of `model` from 8·4N spread poses within the joint limits (no memo).
+    pub fn compute<const N: usize>(model: &Model<N>) -> Self {
         let lim = model.limits();
         let (lo, hi) = clamp_limits(&lim.position_min, &lim.position_max);
         let poses = spread_poses(&lo, &hi, 8 * 4 * N);
@@ -144,6 +151,49 @@ impl GravityBasis {
     }
 }
 
+/// Memo of [`GravityBasis::compute`] keyed on the model without its link parameters (the
+/// gravity regressor, hence the basis, does not depend on them, so models that differ only by
+/// a payload share one entry).
+mod memo {
+    use std::any::Any;
+    use std::sync::{Mutex, PoisonError};
+
+    use dynamics::{InertialParameters, Model};
+
+    use super::GravityBasis;
+
+    /// Distinct robot structures remembered; the oldest is dropped beyond this.
+    const CAPACITY: usize = 8;
+
+    type Entry = (Box<dyn Any + Send>, GravityBasis);
+
+    static ENTRIES: Mutex<Vec<Entry>> = Mutex::new(Vec::new());
+
+    pub(super) fn basis_of<const N: usize>(model: &Model<N>) -> GravityBasis {
+        let key = model.with_links([InertialParameters::zero(); N]);
+        let found = |entries: &[Entry]| {
+            entries
+                .iter()
+                .find(|(k, _)| k.downcast_ref::<Model<N>>() == Some(&key))
+                .map(|(_, b)| b.clone())
+        };
+        // a panic elsewhere while the lock was held cannot leave a half-written entry behind
+        if let Some(b) = found(&ENTRIES.lock().unwrap_or_else(PoisonError::into_inner)) {
+            return b;
+        }
+        // computed outside the lock so that threads with other robots do not wait
+        let basis = GravityBasis::compute(model);
+        let mut entries = ENTRIES.lock().unwrap_or_else(PoisonError::into_inner);
+        if found(&entries).is_none() {
+            if entries.len() >= CAPACITY {
+                entries.remove(0);
+            }
+            entries.push((Box::new(key), basis.clone()));
+        }
+        basis
+    }
+}
+
 /// Replaces infinite limits by ±π so that spread poses stay finite.
 pub fn clamp_limits<const N: usize>(
     lo: &SVector<f64, N>,
@@ -207,6 +257,27 @@ mod tests {
                     g2[j]
                 );
             }
+        }
+    }
+
+    #[test]
+    fn memo_returns_what_compute_computes_for_each_structure() {
+        let lwr = dynamics::lwr4();
+        let loaded = lwr.with_payload(&dynamics::InertialParameters::point_mass(
+            2.0,
+            nalgebra::Vector3::new(0.0, 0.0, 0.1),
+        ));
+        let planar = dynamics::planar_2r();
+        for _ in 0..2 {
+            assert_eq!(GravityBasis::of_model(&lwr), GravityBasis::compute(&lwr));
+            assert_eq!(
+                GravityBasis::of_model(&loaded),
+                GravityBasis::compute(&loaded)
+            );
+            assert_eq!(
+                GravityBasis::of_model(&planar),
+                GravityBasis::compute(&planar)
+            );
         }
     }
 

@@ -74,6 +74,10 @@ coef pg11 = c3x*m3
 coef pg12 = c2z*m2 - c3y*m3 + d1*(m3 + m4 + m5 + m6 + m7)
 ";
 
+/// Largest link count a coefficient set may declare; far beyond any serial arm, and it keeps a
+/// damaged `links` line from sizing the per-link parameter vectors out of memory.
+pub const MAX_LINKS: usize = 1000;
+
 /// A parsed coefficient set: the symbolic definition of a robot's dynamic coefficients.
 #[derive(Debug, Clone)]
 pub struct CoefficientSet {
@@ -123,6 +127,12 @@ impl CoefficientSet {
                         return Err(syntax(
                             line_no,
                             "`links` must be given once and be at least 1",
+                        ));
+                    }
+                    if n > MAX_LINKS {
+                        return Err(syntax(
+                            line_no,
+                            format!("`links {n}` exceeds the supported {MAX_LINKS} links"),
                         ));
                     }
                     links = Some(n);

@@ -186,9 +186,15 @@ pub fn is_parameter_symbol(name: &str, links: usize) -> bool {
     parse_symbol(name, links).is_some()
 }
 
+/// Deepest nesting of parentheses, signs and powers accepted: real coefficient expressions
+/// need a handful, and the recursive-descent parser must not exhaust the stack on a damaged file.
+pub const MAX_NESTING: usize = 64;
+
 struct Parser<'a> {
     tokens: Vec<Token>,
     pos: usize,
+    /// Current recursion depth of `unary` (every nesting path passes through it).
+    depth: usize,
     links: usize,
     constants: &'a BTreeMap<String, f64>,
 }
@@ -227,6 +233,18 @@ impl Parser<'_> {
     }
 
     fn unary(&mut self) -> Result<Value, ExprError> {
+        if self.depth >= MAX_NESTING {
+            return Err(ExprError(format!(
+                "expression nested deeper than {MAX_NESTING} levels (parentheses, signs or powers)"
+            )));
+        }
+        self.depth += 1;
+        let v = self.unary_inner();
+        self.depth -= 1;
+        v
+    }
+
+    fn unary_inner(&mut self) -> Result<Value, ExprError> {
         match self.peek() {
             Some(Token::Op('-')) => {
                 self.pos += 1;
@@ -380,6 +398,7 @@ fn parse_value(
     let mut p = Parser {
         tokens,
         pos: 0,
+        depth: 0,
         links,
         constants,
     };
@@ -389,6 +408,15 @@ fn parse_value(
             "unexpected trailing input at token {}",
             p.pos + 1
         )));
+    }
+    let finite = match &v {
+        Value::Const(c) | Value::Com(_, _, c) => c.is_finite(),
+        Value::Linear(f) => f.values().all(|c| c.is_finite()),
+    };
+    if !finite {
+        return Err(ExprError(
+            "the value is not finite (a number out of range or an overflow)".into(),
+        ));
     }
     Ok(v)
 }

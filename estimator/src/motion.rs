@@ -237,11 +237,18 @@ pub fn process<const N: usize>(
         }
     }
     let trim_s = options.trim_s.unwrap_or(3.0 / options.cutoff_hz);
+    if !(trim_s.is_finite() && trim_s >= 0.0) {
+        return Err(EstimatorError::InvalidSetting(format!(
+            "edge trim {trim_s} s must be a finite number of seconds >= 0"
+        )));
+    }
+    // `as` saturates, and the sum saturates, so a trim far longer than the log cannot overflow
     let trim = (trim_s / dt).round() as usize;
-    if 2 * trim + 2 >= n {
+    let need = trim.saturating_mul(2).saturating_add(3);
+    if need > n {
         return Err(EstimatorError::TooFewSamples {
             got: n,
-            need: 2 * trim + 3,
+            need,
             what: "rows after trimming the filter edges",
         });
     }

@@ -1,9 +1,11 @@
-//! Damaged outside input (coefficient-set files) gives a
+//! Damaged outside input (coefficient-set files, motion options from the command line) gives a
 //! typed error that names the cause, never a panic, an abort or an absurd allocation.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use estimator::EstimatorError;
 use estimator::coefficients::CoefficientSet;
+use estimator::motion::{MotionOptions, Trajectory, process};
+use nalgebra::SVector;
 
 fn syntax_message(text: &str) -> (usize, String) {
     match CoefficientSet::parse(text) {
@@ -44,4 +46,47 @@ fn non_finite_numbers_are_syntax_errors() {
     let (line, message) = syntax_message("links 1\ncoef p1 = 1e200*1e200*m1\n");
     assert_eq!(line, 2);
     assert!(message.contains("finite"), "{message}");
+}
+
+fn ramp(rows: usize) -> Trajectory<2> {
+    let t: Vec<f64> = (0..rows).map(|k| k as f64 * 0.01).collect();
+    Trajectory {
+        q: t.iter()
+            .map(|t| SVector::from([t.sin(), t.cos()]))
+            .collect(),
+        tau: t.iter().map(|t| SVector::from([*t, -t])).collect(),
+        t,
+    }
+}
+
+#[test]
+fn out_of_range_trim_is_an_invalid_setting() {
+    let tr = ramp(2000);
+    for trim in [f64::INFINITY, f64::NAN, -1.0] {
+        let options = MotionOptions {
+            trim_s: Some(trim),
+            ..MotionOptions::default()
+        };
+        match process(&tr, &options) {
+            Err(EstimatorError::InvalidSetting(m)) => assert!(m.contains("trim"), "{m}"),
+            other => panic!("trim {trim}: expected InvalidSetting, got {other:?}"),
+        }
+    }
+    // a trim longer than the log is "too few rows", with the numbers (1e30 s used to overflow)
+    for trim in [15.0, 1e30] {
+        let options = MotionOptions {
+            trim_s: Some(trim),
+            ..MotionOptions::default()
+        };
+        assert!(matches!(
+            process(&tr, &options),
+            Err(EstimatorError::TooFewSamples { got: 2000, .. })
+        ));
+    }
+    // and a sensible trim keeps rows - 2·trim/dt samples
+    let options = MotionOptions {
+        trim_s: Some(1.0),
+        ..MotionOptions::default()
+    };
+    assert_eq!(process(&tr, &options).unwrap().len(), 2000 - 2 * 100);
 }

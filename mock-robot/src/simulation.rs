@@ -624,9 +624,10 @@ impl Simulation {
         } else {
             JointVector::zeros()
         };
-        // Per-cycle controller terms: diagonal inertia for gains.
-        let m_ctrl = dynamics::crba(&self.controller_model, &mut self.data_ctrl, &self.q);
-        let inertia_diag = JointVector::from_fn(|i, _| m_ctrl[(i, i)] + self.rotor[i]);
+        // Per-cycle controller terms: diagonal inertia for gains, from the mass matrix of the
+        // last measurement (same pose up to encoder quantisation).
+        let inertia_diag =
+            JointVector::from_fn(|i, _| self.measurement.data.mass_matrix[i][i] + self.rotor[i]);
         let (w, lambda) = (
             self.config.control.position_bandwidth_rad_s,
             self.config.control.position_integral_per_s,
@@ -792,8 +793,11 @@ impl Simulation {
         };
         self.mirrored = cmd_pos + offset;
         let cmd_pose = dynamics::flange_pose(model, data, &cmd_pos);
-        let fri_pose = dynamics::flange_pose(model, data, &self.mirrored);
-        let offset_pose = cmd_pose.inverse() * fri_pose;
+        let offset_pose = if in_command {
+            cmd_pose.inverse() * dynamics::flange_pose(model, data, &self.mirrored)
+        } else {
+            Isometry3::identity()
+        };
         let stats = self.window.statistics();
         let mut krl = KrlData::default();
         self.krl.write_status(&mut krl.int);

@@ -224,6 +224,34 @@ fn poses_paper_and_optimised() {
 }
 
 #[test]
+fn poses_reject_out_of_range_numbers() {
+    let around = "0,0.5235987756,0,-1.0471975512,0,1.0471975512,0";
+    // usize::MAX poses used to abort on the up-front allocation ("capacity overflow")
+    for count in ["18446744073709551615", "1"] {
+        for optimize in [false, true] {
+            let mut args = vec!["poses", "--around", around, "--count", count];
+            if optimize {
+                args.push("--optimize");
+            }
+            let e = err_text(&args);
+            assert!(e.contains("--count") && e.contains("2 to 10000"), "{e}");
+        }
+    }
+    for (flag, value) in [
+        ("--sigma", "0"),
+        ("--sigma", "NaN"),
+        ("--mass-guess", "0"),
+        ("--mass-guess", "inf"),
+    ] {
+        let e = err_text(&["poses", "--around", around, flag, value]);
+        assert!(
+            e.contains("must be positive numbers"),
+            "{flag} {value}: {e}"
+        );
+    }
+}
+
+#[test]
 fn bad_inputs_fail_with_clear_errors() {
     let cases: [(&[&str], &[&str]); 7] = [
         (

@@ -161,6 +161,9 @@ pub fn coefficients(a: &CoefficientsArgs, out: &mut dyn Write) -> anyhow::Result
     Ok(())
 }
 
+/// Largest `--count` of `offline poses`; a static estimate needs tens of poses, not thousands.
+const MAX_POSES: usize = 10_000;
+
 fn poses_n<const N: usize>(
     model: Model<N>,
     a: &PosesArgs,
@@ -177,6 +180,17 @@ fn poses_n<const N: usize>(
         bail!(
             "--around must be finite numbers (rad) and --spread-deg a positive number of degrees"
         );
+    }
+    // the pose list is allocated up front: an absurd count must not abort the process
+    if !(2..=MAX_POSES).contains(&a.count) {
+        bail!(
+            "--count {} is out of range: a pose design needs 2 to {MAX_POSES} poses",
+            a.count
+        );
+    }
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    if !(positive(a.sigma) && positive(a.mass_guess)) {
+        bail!("--sigma (Nm) and --mass-guess (kg) must be positive numbers");
     }
     let center = SVector::<f64, N>::from_column_slice(&a.around);
     if !model.limits().contains_position(&center) {

@@ -9,6 +9,7 @@ use nalgebra::{DMatrix, DVector, SVector};
 use serde::{Deserialize, Serialize};
 
 use crate::basis::GravityBasis;
+use crate::equations;
 use crate::error::EstimatorError;
 use crate::estimate::{
     Correction, EstimateOptions, Method, PayloadEstimate, estimate_coefficients_with,
@@ -123,10 +124,7 @@ impl Calibration {
             .iter()
             .map(|s| basis.regressor(model, &mut data, &s.q))
             .collect();
-        let scale = regs.iter().map(|y| y.amax()).fold(0.0, f64::max);
-        let joints: Vec<usize> = (0..N)
-            .filter(|&j| regs.iter().any(|y| y.row(j).amax() > 1e-9 * scale))
-            .collect();
+        let joints = equations::used_joints(&regs);
         let rows = joints.len() * unloaded.len();
         if rows <= nb || joints.is_empty() {
             return Err(EstimatorError::TooFewSamples {
@@ -135,23 +133,13 @@ impl Calibration {
                 what: "unloaded poses for the model-error calibration (spread them over the workspace)",
             });
         }
-        let mut a = DMatrix::zeros(rows, nb);
-        let mut b = DVector::zeros(rows);
-        for (k, (y, s)) in regs.iter().zip(unloaded).enumerate() {
-            let d = s.delta_tau();
-            for (i, &j) in joints.iter().enumerate() {
-                a.row_mut(k * joints.len() + i).copy_from(&y.row(j));
-                b[k * joints.len() + i] = d[j];
-            }
-        }
+        let deltas: Vec<SVector<f64, N>> = unloaded.iter().map(|s| s.delta_tau()).collect();
+        let (a, b) = equations::stack(&regs, &deltas, &joints, nb);
         let ls = lsq::solve(&a, &b, options.condition_limit)?;
-        let mut sq = vec![0.0; N];
-        for (y, s) in regs.iter().zip(unloaded) {
-            let r = DVector::from_column_slice(s.delta_tau().as_slice()) - y * &ls.x;
-            for (j, acc) in sq.iter_mut().enumerate() {
-                *acc += r[j] * r[j];
-            }
-        }
+        let residual_rms = equations::per_joint_rms(regs.iter().zip(&deltas).map(|(y, d)| {
+            let fit = y * &ls.x;
+            SVector::<f64, N>::from_fn(|j, _| d[j] - fit[j])
+        }));
         Ok(Calibration {
             joints: N,
             base_columns: basis.independent.clone(),
@@ -159,10 +147,7 @@ impl Calibration {
             delta_std: (0..nb)
                 .map(|i| ls.covariance[(i, i)].max(0.0).sqrt())
                 .collect(),
-            residual_rms: sq
-                .iter()
-                .map(|s| (s / unloaded.len() as f64).sqrt())
-                .collect(),
+            residual_rms,
             samples: unloaded.len(),
             condition_number: ls.condition_number,
         })

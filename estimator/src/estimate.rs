@@ -13,10 +13,11 @@
 //! information and are dropped automatically.
 
 use dynamics::{Data, InertialParameters, Model, payload_gravity_regressor};
-use nalgebra::{DMatrix, DVector, Matrix3, Matrix3x4, Matrix4, SMatrix, Vector3, Vector4};
+use nalgebra::{DMatrix, DVector, Matrix3, Matrix3x4, Matrix4, SMatrix, SVector, Vector3, Vector4};
 use serde::{Deserialize, Serialize};
 
 use crate::basis::GravityBasis;
+use crate::equations;
 use crate::error::EstimatorError;
 use crate::lsq::{self, DEFAULT_CONDITION_LIMIT};
 use crate::samples::{StaticCheck, StaticSample, validate};
@@ -146,15 +147,6 @@ fn check_input<const N: usize>(
     validate(samples, &options.static_check)
 }
 
-/// Rows (joints) that are non-zero in at least one of the regressors.
-fn used_joints<const N: usize, const C: usize>(regs: &[SMatrix<f64, N, C>]) -> Vec<usize> {
-    let scale = regs.iter().map(|y| y.amax()).fold(0.0, f64::max);
-    let tol = 1e-9 * scale.max(f64::MIN_POSITIVE);
-    (0..N)
-        .filter(|&j| regs.iter().any(|y| y.row(j).amax() > tol))
-        .collect()
-}
-
 /// Direct formulation: least squares on the payload gravity regressor.
 pub fn estimate_direct<const N: usize>(
     model: &Model<N>,
@@ -179,32 +171,13 @@ pub(crate) fn estimate_direct_with<const N: usize>(
         .map(|s| payload_gravity_regressor(model, &mut data, &s.q))
         .collect();
     let deltas: Vec<_> = samples.iter().map(delta).collect();
-    let joints = used_joints(&regs);
-    let rows = joints.len() * samples.len();
-    let mut a = DMatrix::zeros(rows, 4);
-    let mut b = DVector::zeros(rows);
-    for (k, (y, d)) in regs.iter().zip(&deltas).enumerate() {
-        for (i, &j) in joints.iter().enumerate() {
-            let r = k * joints.len() + i;
-            a.row_mut(r).copy_from(&y.row(j));
-            b[r] = d[j];
-        }
-    }
+    let joints = equations::used_joints(&regs);
+    let (a, b) = equations::stack(&regs, &deltas, &joints, 4);
     let cols = identifiable_columns(&a);
     let a_red = a.select_columns(cols.iter());
     let ls = lsq::solve(&a_red, &b, options.condition_limit)?;
     let (x, cov) = expand(&cols, &ls.x, &ls.covariance);
-    let mut sq = vec![0.0; N];
-    for (y, d) in regs.iter().zip(&deltas) {
-        let r = d - y * x;
-        for (j, acc) in sq.iter_mut().enumerate() {
-            *acc += r[j] * r[j];
-        }
-    }
-    let residual_rms = sq
-        .iter()
-        .map(|s| (s / samples.len() as f64).sqrt())
-        .collect();
+    let residual_rms = equations::per_joint_rms(regs.iter().zip(&deltas).map(|(y, d)| d - y * x));
     finish(
         model,
         Method::Direct,
@@ -255,10 +228,7 @@ pub(crate) fn estimate_coefficients_with<const N: usize>(
         .map(|s| basis.regressor(model, &mut data, &s.q))
         .collect();
     let deltas: Vec<_> = samples.iter().map(delta).collect();
-    let scale = regs.iter().map(|y| y.amax()).fold(0.0, f64::max);
-    let joints: Vec<usize> = (0..N)
-        .filter(|&j| regs.iter().any(|y| y.row(j).amax() > 1e-9 * scale))
-        .collect();
+    let joints = equations::used_joints(&regs);
     let rows = joints.len() * samples.len();
     if rows <= nb {
         return Err(EstimatorError::TooFewSamples {
@@ -267,15 +237,7 @@ pub(crate) fn estimate_coefficients_with<const N: usize>(
             what: "static poses for the paper's coefficient method (more equations than gravity coefficients)",
         });
     }
-    let mut a = DMatrix::zeros(rows, nb);
-    let mut b = DVector::zeros(rows);
-    for (k, (y, d)) in regs.iter().zip(&deltas).enumerate() {
-        for (i, &j) in joints.iter().enumerate() {
-            let r = k * joints.len() + i;
-            a.row_mut(r).copy_from(&y.row(j));
-            b[r] = d[j];
-        }
-    }
+    let (a, b) = equations::stack(&regs, &deltas, &joints, nb);
     let ls = lsq::solve(&a, &b, options.condition_limit)?;
     // J_ε by substitution into the last link: ε(p_L) = K(p + S p_L) − K p, column by column
     let zero = DVector::zeros(4 * N);
@@ -296,17 +258,10 @@ pub(crate) fn estimate_coefficients_with<const N: usize>(
     let p = &pinv * eps_nz;
     let cov_p = &pinv * cov_eps * pinv.transpose();
     let (x, cov) = expand(&cols, &p, &cov_p);
-    let mut sq = vec![0.0; N];
-    for (y, d) in regs.iter().zip(&deltas) {
-        let r = DVector::from_column_slice(d.as_slice()) - y * &ls.x;
-        for (j, acc) in sq.iter_mut().enumerate() {
-            *acc += r[j] * r[j];
-        }
-    }
-    let residual_rms = sq
-        .iter()
-        .map(|s| (s / samples.len() as f64).sqrt())
-        .collect();
+    let residual_rms = equations::per_joint_rms(regs.iter().zip(&deltas).map(|(y, d)| {
+        let fit = y * &ls.x;
+        SVector::<f64, N>::from_fn(|j, _| d[j] - fit[j])
+    }));
     finish(
         model,
         Method::Coefficients,

@@ -21,6 +21,7 @@
 pub mod basis;
 pub mod coefficients;
 pub mod correction;
+mod equations;
 pub mod error;
 pub mod estimate;
 pub mod expr;

@@ -851,6 +851,17 @@ mod tests {
     use super::*;
 
     #[test]
+    fn runs_without_payload() {
+        let mut config = SimulationConfig::default();
+        config.payload.mass_kg = 0.0;
+        let mut sim = Simulation::new(config).unwrap();
+        sim.step_cycle(None);
+        assert!(sim.true_payload().is_none());
+        let g = dynamics::compute_generalized_gravity(&dynamics::lwr4(), &mut Data::new(sim.true_model()), sim.q());
+        assert!((sim.true_joint_torques() - g).amax() < 0.05);
+    }
+
+    #[test]
     fn rest_pose_stays_at_rest_in_monitor_mode() {
         let config = SimulationConfig {
             sensors: crate::config::SensorSpec::ideal(),

@@ -14,20 +14,20 @@ pub enum GravitySource {
     /// Computed from the observer's dynamic model.
     #[default]
     Model,
-    /// Taken from the sample (the controller's `data.gravity` of the FRI packet [Nm]); it must be
+    /// Taken from the sample (the controller's `data.gravity` of the FRI packet \[Nm\]); it must be
     /// the gravity of the robot *without* the undeclared payload.
     Controller,
 }
 
-/// Default observer gain K_I [1/s] (collision-detection.md §10 target 3).
+/// Default observer gain K_I \[1/s\] (collision-detection.md §10 target 3).
 pub const DEFAULT_GAIN: f64 = 100.0;
 
 /// Configuration of the momentum observer for N joints.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ObserverConfig<const N: usize> {
-    /// Controller's nominal sample period T [s] (FRI `desiredMsrSampleTime`), e.g. 0.001.
+    /// Controller's nominal sample period T \[s\] (FRI `desiredMsrSampleTime`), e.g. 0.001.
     pub sample_period_s: f64,
-    /// Per-joint observer gains K_I [1/s]; each joint's residual is K_I/(s + K_I) of τ_ext.
+    /// Per-joint observer gains K_I \[1/s\]; each joint's residual is K_I/(s + K_I) of τ_ext.
     pub gains: SVector<f64, N>,
     /// Discretisation (default exact ZOH).
     pub discretisation: Discretisation,
@@ -48,9 +48,9 @@ pub struct ObserverConfig<const N: usize> {
 }
 
 impl<const N: usize> ObserverConfig<N> {
-    /// Defaults: gain `gain` [1/s] on every joint, period `sample_period_s` [s], exact ZOH,
+    /// Defaults: gain `gain` \[1/s\] on every joint, period `sample_period_s` \[s\], exact ZOH,
     /// first-order 200 Hz velocity filter, model gravity, no friction, dt accepted in
-    /// [0.5T, 3T], stale after 100 identical samples.
+    /// \[0.5T, 3T\], stale after 100 identical samples.
     pub fn new(sample_period_s: f64, gain: f64) -> Self {
         Self {
             sample_period_s,

@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::ConfigError;
 
-/// Default collision threshold on every joint [Nm] (the paper's 6 Nm).
+/// Default collision threshold on every joint \[Nm\] (the paper's 6 Nm).
 pub const DEFAULT_THRESHOLD_NM: f64 = 6.0;
 
 /// Set of joints as a bit mask (bit j = joint j, 0-based; N ≤ 32).
@@ -51,9 +51,9 @@ impl JointSet {
 /// Detector configuration for N joints.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct DetectorConfig<const N: usize> {
-    /// Static thresholds θ0 [Nm] per joint.
+    /// Static thresholds θ0 \[Nm\] per joint.
     pub thresholds_nm: SVector<f64, N>,
-    /// Velocity scheduling c [Nm·s/rad] per joint: θ = θ0 + c·|q̇| (zero = static threshold).
+    /// Velocity scheduling c \[Nm·s/rad\] per joint: θ = θ0 + c·|q̇| (zero = static threshold).
     pub velocity_coefficients: SVector<f64, N>,
     /// Release level as a fraction of θ (hysteresis), in (0, 1].
     pub release_ratio: f64,
@@ -104,7 +104,7 @@ impl<const N: usize> DetectorConfig<N> {
         Ok(())
     }
 
-    /// Effective thresholds θ0 + c·|q̇| [Nm] at joint velocity `qd` [rad/s].
+    /// Effective thresholds θ0 + c·|q̇| \[Nm\] at joint velocity `qd` \[rad/s\].
     pub fn thresholds_at(&self, qd: &SVector<f64, N>) -> SVector<f64, N> {
         self.thresholds_nm + self.velocity_coefficients.component_mul(&qd.abs())
     }
@@ -115,18 +115,18 @@ impl<const N: usize> DetectorConfig<N> {
 pub struct CollisionEvent<const N: usize> {
     /// Observer cycle of the onset sample.
     pub cycle: u64,
-    /// Time of the onset sample since the observer started [s].
+    /// Time of the onset sample since the observer started \[s\].
     pub time_s: f64,
     /// Joints over threshold at the onset.
     pub joints_over: JointSet,
-    /// Residual at the onset [Nm].
+    /// Residual at the onset \[Nm\].
     pub residual: SVector<f64, N>,
-    /// Effective thresholds at the onset [Nm].
+    /// Effective thresholds at the onset \[Nm\].
     pub thresholds: SVector<f64, N>,
     /// Isolated link, 0-based (link i moves with joint i): the most distal joint with
     /// |r_j| > isolation_ratio·θ_j at the onset.
     pub isolated_link: usize,
-    /// Estimated contact wrench (F [N]; moment [Nm] about the contact point), base frame, for
+    /// Estimated contact wrench (F \[N\]; moment \[Nm\] about the contact point), base frame, for
     /// contacts isolated on the last link; filled by [`crate::monitor::CollisionMonitor`].
     pub contact_wrench: Option<SVector<f64, 6>>,
 }
@@ -144,12 +144,12 @@ pub enum Detection<const N: usize> {
     InContact,
     /// Contact ended at this sample.
     Released {
-        /// Contact duration since the onset [s].
+        /// Contact duration since the onset \[s\].
         duration_s: f64,
         /// Most distal link isolated at any sample of the contact (0-based), a refinement of
         /// the onset's `isolated_link`.
         episode_link: usize,
-        /// Peak |r_j| per joint over the contact [Nm].
+        /// Peak |r_j| per joint over the contact \[Nm\].
         peak_residual: SVector<f64, N>,
     },
 }
@@ -228,8 +228,8 @@ impl<const N: usize> CollisionDetector<N> {
             .find(|&j| residual[j].abs() > self.config.isolation_ratio * thresholds[j])
     }
 
-    /// Processes one updated residual `residual` [Nm] at velocity `qd` [rad/s], observer
-    /// cycle `cycle` and time `time_s` [s].
+    /// Processes one updated residual `residual` \[Nm\] at velocity `qd` \[rad/s\], observer
+    /// cycle `cycle` and time `time_s` \[s\].
     pub fn update(
         &mut self,
         residual: &SVector<f64, N>,

@@ -1,6 +1,6 @@
 //! Per-sample update of the momentum residual: exact zero-order hold (default) or Euler.
 //!
-//! With u_k = (p_k − p_{k−1})/T − (τ_k − β_k) [Nm] (the sampled "measured" external torque, where
+//! With u_k = (p_k − p_{k−1})/T − (τ_k − β_k) \[Nm\] (the sampled "measured" external torque, where
 //! β = g_L(q) − Cᵀ(q, q̇)q̇), both forms read r_k = a·r_{k−1} + b·u_k per joint:
 //! - exact ZOH of ṙ = K(τ_ext − r): a = e^{−KT}, b = 1 − e^{−KT} (exact when u is constant over
 //!   the sample, stable for every K·T > 0);
@@ -25,8 +25,8 @@ pub enum Discretisation {
 }
 
 impl Discretisation {
-    /// Decay `a` and input weight `b` of r_k = a·r_{k−1} + b·u_k for gain `gain` [1/s] and sample
-    /// period `dt` [s].
+    /// Decay `a` and input weight `b` of r_k = a·r_{k−1} + b·u_k for gain `gain` \[1/s\] and sample
+    /// period `dt` \[s\].
     pub fn coefficients(self, gain: f64, dt: f64) -> (f64, f64) {
         match self {
             Discretisation::ExactZeroOrderHold => {
@@ -61,7 +61,7 @@ pub struct ResidualIntegrator<const N: usize> {
 }
 
 impl<const N: usize> ResidualIntegrator<N> {
-    /// New integrator with per-joint gains K_I [1/s], coefficients prepared for `period` [s].
+    /// New integrator with per-joint gains K_I \[1/s\], coefficients prepared for `period` \[s\].
     pub fn new(discretisation: Discretisation, gains: SVector<f64, N>, period: f64) -> Self {
         let mut integrator = Self {
             discretisation,
@@ -85,7 +85,7 @@ impl<const N: usize> ResidualIntegrator<N> {
         self.coefficients_period = period;
     }
 
-    /// Starts from momentum `momentum` = M(q₀)q̇₀ [N·m·s] with a zero residual.
+    /// Starts from momentum `momentum` = M(q₀)q̇₀ \[N·m·s\] with a zero residual.
     pub fn reset(&mut self, momentum: &SVector<f64, N>) {
         self.previous_momentum = *momentum;
         self.residual = SVector::zeros();
@@ -96,8 +96,8 @@ impl<const N: usize> ResidualIntegrator<N> {
         self.previous_momentum = *momentum;
     }
 
-    /// One sample: `momentum` = M(q_k)q̇_k [N·m·s], `drive` = τ_k − β_k [Nm], `dt` [s] since the
-    /// previous sample. Returns the new residual r_k [Nm].
+    /// One sample: `momentum` = M(q_k)q̇_k \[N·m·s\], `drive` = τ_k − β_k \[Nm\], `dt` \[s\] since the
+    /// previous sample. Returns the new residual r_k \[Nm\].
     pub fn update(
         &mut self,
         momentum: &SVector<f64, N>,
@@ -120,12 +120,12 @@ impl<const N: usize> ResidualIntegrator<N> {
         &self.residual
     }
 
-    /// Current residual r [Nm].
+    /// Current residual r \[Nm\].
     pub fn residual(&self) -> &SVector<f64, N> {
         &self.residual
     }
 
-    /// Per-joint gains K_I [1/s].
+    /// Per-joint gains K_I \[1/s\].
     pub fn gains(&self) -> &SVector<f64, N> {
         &self.gains
     }

@@ -11,7 +11,7 @@ pub enum ConfigError {
     Gain {
         /// Joint index, 0-based.
         joint: usize,
-        /// Offending gain [1/s].
+        /// Offending gain \[1/s\].
         gain: f64,
     },
     /// Euler form unstable at the largest accepted time step (K·T ≥ 2).
@@ -19,9 +19,9 @@ pub enum ConfigError {
     UnstableEuler {
         /// Joint index, 0-based.
         joint: usize,
-        /// Gain [1/s].
+        /// Gain \[1/s\].
         gain: f64,
-        /// Largest accepted period [s].
+        /// Largest accepted period \[s\].
         period: f64,
     },
     /// Time-step acceptance band invalid.

@@ -9,13 +9,13 @@ use serde::{Deserialize, Serialize};
 /// Which input signal carried a bad value.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Signal {
-    /// Measured joint position q [rad].
+    /// Measured joint position q \[rad\].
     Position,
-    /// Supplied joint velocity q̇ [rad/s].
+    /// Supplied joint velocity q̇ \[rad/s\].
     Velocity,
-    /// Measured joint torque τ_J [Nm].
+    /// Measured joint torque τ_J \[Nm\].
     Torque,
-    /// Controller's gravity vector from the FRI packet [Nm].
+    /// Controller's gravity vector from the FRI packet \[Nm\].
     ControllerGravity,
 }
 
@@ -39,21 +39,21 @@ pub enum Fault {
     /// The time step was zero, negative or not finite.
     #[error("invalid time step {dt_s} s")]
     InvalidTimeStep {
-        /// Offending time step [s].
+        /// Offending time step \[s\].
         dt_s: f64,
     },
     /// The time step lies outside the accepted band around the nominal period.
     #[error("time step {dt_s} s far off the nominal {nominal_s} s")]
     TimeStepOffNominal {
-        /// Offending time step [s].
+        /// Offending time step \[s\].
         dt_s: f64,
-        /// Nominal controller period [s].
+        /// Nominal controller period \[s\].
         nominal_s: f64,
     },
     /// The payload estimate is not physical; the previous payload stays in use.
     #[error("rejected payload estimate: mass {mass_kg} kg (negative or non-finite parameters)")]
     InvalidPayload {
-        /// Mass of the rejected estimate [kg].
+        /// Mass of the rejected estimate \[kg\].
         mass_kg: f64,
     },
     /// Gravity source is the controller but the sample carried no gravity vector.

@@ -11,16 +11,16 @@ use serde::{Deserialize, Serialize};
 /// Smoothed Coulomb + viscous friction per joint.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct JointFriction<const N: usize> {
-    /// Coulomb friction level F_c per joint [Nm].
+    /// Coulomb friction level F_c per joint \[Nm\].
     pub coulomb: SVector<f64, N>,
-    /// Viscous coefficient F_v per joint [Nm·s/rad].
+    /// Viscous coefficient F_v per joint \[Nm·s/rad\].
     pub viscous: SVector<f64, N>,
-    /// Velocity scale v_s of the tanh smoothing of the Coulomb term [rad/s]; must be > 0.
+    /// Velocity scale v_s of the tanh smoothing of the Coulomb term \[rad/s\]; must be > 0.
     pub smoothing_velocity: f64,
 }
 
 impl<const N: usize> JointFriction<N> {
-    /// Friction torque τ_f(q̇) [Nm] opposing the joint velocity `qd` [rad/s].
+    /// Friction torque τ_f(q̇) \[Nm\] opposing the joint velocity `qd` \[rad/s\].
     pub fn torque(&self, qd: &SVector<f64, N>) -> SVector<f64, N> {
         let mut tau = SVector::zeros();
         for j in 0..N {

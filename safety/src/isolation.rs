@@ -19,8 +19,8 @@ pub fn isolate_link(over: JointSet) -> Option<usize> {
     over.most_distal()
 }
 
-/// Damped least-squares estimate of the contact wrench (F [N]; moment about the point [Nm]),
-/// base frame, from residual `residual` [Nm] for a contact at `point_in_link` [m] in the DH
+/// Damped least-squares estimate of the contact wrench (F \[N\]; moment about the point \[Nm\]),
+/// base frame, from residual `residual` \[Nm\] for a contact at `point_in_link` \[m\] in the DH
 /// frame of link `link` (0-based), damping `damping` λ (same units as J entries; 0 = plain
 /// pseudo-inverse). `None` when the damped system is singular.
 pub fn estimate_contact_wrench<const N: usize>(
@@ -39,8 +39,8 @@ pub fn estimate_contact_wrench<const N: usize>(
     normal.cholesky().map(|c| c.solve(&rhs))
 }
 
-/// Damped least-squares estimate of a pure contact force F [N] (base frame) at `point_in_link`
-/// [m] on link `link` (0-based) from residual `residual` [Nm]: F̂ = (J_v J_vᵀ + λ²I)⁻¹ J_v r.
+/// Damped least-squares estimate of a pure contact force F \[N\] (base frame) at `point_in_link`
+/// \[m\] on link `link` (0-based) from residual `residual` \[Nm\]: F̂ = (J_v J_vᵀ + λ²I)⁻¹ J_v r.
 pub fn estimate_contact_force<const N: usize>(
     model: &Model<N>,
     data: &mut Data<N>,

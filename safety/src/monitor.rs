@@ -28,7 +28,7 @@ pub struct MonitorConfig<const N: usize> {
     pub reaction: ReactionPolicy,
     /// Reaction to an observer fault (default: stop).
     pub fault_reaction: ReactionPolicy,
-    /// Assumed contact point for last-link contacts [m], in the last DH frame; `None` = the
+    /// Assumed contact point for last-link contacts \[m\], in the last DH frame; `None` = the
     /// flange origin of the model.
     pub contact_point: Option<Vector3<f64>>,
     /// Damping λ of the contact-wrench estimate (0 = plain pseudo-inverse).
@@ -36,7 +36,7 @@ pub struct MonitorConfig<const N: usize> {
 }
 
 impl<const N: usize> MonitorConfig<N> {
-    /// Defaults around an observer with period `sample_period_s` [s] and gain `gain` [1/s].
+    /// Defaults around an observer with period `sample_period_s` \[s\] and gain `gain` \[1/s\].
     pub fn new(sample_period_s: f64, gain: f64) -> Self {
         Self {
             observer: ObserverConfig::new(sample_period_s, gain),
@@ -113,9 +113,9 @@ impl<const N: usize> CollisionMonitor<N> {
         self.supervisor.acknowledge();
     }
 
-    /// Damped least-squares contact wrench (F [N]; moment about the contact point [Nm], base
+    /// Damped least-squares contact wrench (F \[N\]; moment about the contact point \[Nm\], base
     /// frame) for a contact on the last link at the configured contact point, from the current
-    /// residual at configuration `q` [rad]. Meaningful once the residual has converged
+    /// residual at configuration `q` \[rad\]. Meaningful once the residual has converged
     /// (t > 5/K_I after the contact started). `None` if the damped system is singular.
     pub fn last_link_wrench(&mut self, q: &SVector<f64, N>) -> Option<Vector6<f64>> {
         let residual = *self.observer.residual();

@@ -22,22 +22,22 @@ use crate::velocity::VelocityEstimator;
 /// One controller sample as the observer needs it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ObserverInput<const N: usize> {
-    /// Measured joint positions q [rad].
+    /// Measured joint positions q \[rad\].
     pub q: SVector<f64, N>,
-    /// Measured link-side joint torques τ_J [Nm] (FRI `msrJntTrq`), sign as τ = M q̈ + C q̇ + g.
+    /// Measured link-side joint torques τ_J \[Nm\] (FRI `msrJntTrq`), sign as τ = M q̈ + C q̇ + g.
     pub tau: SVector<f64, N>,
-    /// Time since the previous sample [s]: the controller's nominal period times the number of
+    /// Time since the previous sample \[s\]: the controller's nominal period times the number of
     /// periods elapsed (from its sequence counter), never host receive times.
     pub dt_s: f64,
-    /// Measured joint velocities [rad/s], if available; otherwise q̇ is estimated from q.
+    /// Measured joint velocities \[rad/s\], if available; otherwise q̇ is estimated from q.
     pub velocity: Option<SVector<f64, N>>,
-    /// Controller's unloaded gravity vector [Nm] (FRI `data.gravity`), needed with
+    /// Controller's unloaded gravity vector \[Nm\] (FRI `data.gravity`), needed with
     /// [`GravitySource::Controller`].
     pub controller_gravity: Option<SVector<f64, N>>,
 }
 
 impl<const N: usize> ObserverInput<N> {
-    /// A sample with positions [rad], torques [Nm] and time step [s], no velocity or gravity.
+    /// A sample with positions \[rad\], torques \[Nm\] and time step \[s\], no velocity or gravity.
     pub fn new(q: SVector<f64, N>, tau: SVector<f64, N>, dt_s: f64) -> Self {
         Self {
             q,
@@ -85,11 +85,11 @@ impl ObserverStatus {
 pub struct ObserverOutput<const N: usize> {
     /// Number of samples seen so far (1 for the first).
     pub cycle: u64,
-    /// Sum of accepted time steps since the first sample [s].
+    /// Sum of accepted time steps since the first sample \[s\].
     pub time_s: f64,
-    /// Residual r ≈ τ_ext filtered by K_I/(s + K_I) [Nm].
+    /// Residual r ≈ τ_ext filtered by K_I/(s + K_I) \[Nm\].
     pub residual: SVector<f64, N>,
-    /// Joint velocity used [rad/s] (supplied or estimated).
+    /// Joint velocity used \[rad/s\] (supplied or estimated).
     pub velocity: SVector<f64, N>,
     /// What became of the sample.
     pub status: ObserverStatus,
@@ -185,7 +185,7 @@ impl<const N: usize> MomentumObserver<N> {
         self.faults.clear();
     }
 
-    /// Current residual [Nm].
+    /// Current residual \[Nm\].
     pub fn residual(&self) -> &SVector<f64, N> {
         self.integrator.residual()
     }

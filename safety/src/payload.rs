@@ -16,9 +16,9 @@ pub enum PayloadCompensation {
     /// The paper's eq. 48: only g_L carries the payload, from its gravity parameters
     /// (eq. 40: m, m·c); M and Cᵀq̇ stay those of the unloaded robot.
     Gravity {
-        /// Payload mass m [kg].
+        /// Payload mass m \[kg\].
         mass_kg: f64,
-        /// First moment of mass m·c [kg·m], last DH frame.
+        /// First moment of mass m·c \[kg·m\], last DH frame.
         first_moment: Vector3<f64>,
     },
     /// All ten inertial parameters: the payload enters g_L and also M and Cᵀq̇
@@ -27,7 +27,7 @@ pub enum PayloadCompensation {
 }
 
 impl PayloadCompensation {
-    /// Gravity-only compensation from mass [kg] and CoM [m] in the last DH frame.
+    /// Gravity-only compensation from mass \[kg\] and CoM \[m\] in the last DH frame.
     pub fn gravity_from_com(mass_kg: f64, com: Vector3<f64>) -> Self {
         PayloadCompensation::Gravity {
             mass_kg,
@@ -35,7 +35,7 @@ impl PayloadCompensation {
         }
     }
 
-    /// The gravity parameters (m, m·cx, m·cy, m·cz) [kg, kg·m] multiplying the payload gravity
+    /// The gravity parameters (m, m·cx, m·cy, m·cz) \[kg, kg·m\] multiplying the payload gravity
     /// regressor (paper eq. 40); zero for [`PayloadCompensation::None`].
     pub fn gravity_parameters(&self) -> SVector<f64, 4> {
         match self {

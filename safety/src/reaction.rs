@@ -16,9 +16,9 @@ pub enum ReactionPolicy {
     /// Stop and hold the current position; the task is aborted and only an explicit operator
     /// restart continues.
     Stop,
-    /// Hold, then resume automatically once the contact has been released for `pause_s` [s].
+    /// Hold, then resume automatically once the contact has been released for `pause_s` \[s\].
     PauseThenResume {
-        /// Pause after the contact ends [s] (paper: 2 s).
+        /// Pause after the contact ends \[s\] (paper: 2 s).
         pause_s: f64,
     },
     /// Hold until the operator acknowledges, then resume.
@@ -64,7 +64,7 @@ pub enum ReactionRequest<const N: usize> {
     Pause {
         /// Cause of the pause.
         cause: StopCause<N>,
-        /// Pause after the contact ends [s].
+        /// Pause after the contact ends \[s\].
         pause_s: f64,
     },
     /// Stop and hold until the operator acknowledges.
@@ -148,7 +148,7 @@ impl ReactionSupervisor {
         }
     }
 
-    /// Advances at time `time_s` [s] with this sample's collision onset (if any), whether a
+    /// Advances at time `time_s` \[s\] with this sample's collision onset (if any), whether a
     /// contact is present, and the observer fault (if any). Returns a request when the state
     /// changes.
     pub fn update<const N: usize>(

@@ -23,15 +23,15 @@ use serde::{Deserialize, Serialize};
 pub enum VelocityFilter {
     /// (q_k − q_{k−1})/T, no smoothing: delay T/2, noise σ_v = √2·σ_q/T.
     BackwardDifference,
-    /// Backward difference followed by a first-order low-pass with cut-off `cutoff_hz` [Hz].
+    /// Backward difference followed by a first-order low-pass with cut-off `cutoff_hz` \[Hz\].
     FirstOrder {
-        /// Cut-off frequency [Hz].
+        /// Cut-off frequency \[Hz\].
         cutoff_hz: f64,
     },
-    /// Backward difference followed by two first-order sections at `cutoff_hz` [Hz]
+    /// Backward difference followed by two first-order sections at `cutoff_hz` \[Hz\]
     /// (critically damped second order).
     SecondOrder {
-        /// Cut-off frequency of each section [Hz].
+        /// Cut-off frequency of each section \[Hz\].
         cutoff_hz: f64,
     },
 }
@@ -48,8 +48,8 @@ impl VelocityFilter {
         (-2.0 * std::f64::consts::PI * cutoff_hz * period).exp()
     }
 
-    /// Low-frequency group delay [s] of the velocity estimate relative to the true velocity, at
-    /// sample period `period` [s].
+    /// Low-frequency group delay \[s\] of the velocity estimate relative to the true velocity, at
+    /// sample period `period` \[s\].
     pub fn group_delay(self, period: f64) -> f64 {
         let half_sample = 0.5 * period;
         match self {
@@ -102,12 +102,12 @@ impl<const N: usize> VelocityEstimator<N> {
         self.filter
     }
 
-    /// Forgets the history; the next sample restarts with velocity `initial` [rad/s].
+    /// Forgets the history; the next sample restarts with velocity `initial` \[rad/s\].
     pub fn reset(&mut self) {
         self.initialised = false;
     }
 
-    /// Sets the state to position `q` [rad] moving at `velocity` [rad/s].
+    /// Sets the state to position `q` \[rad\] moving at `velocity` \[rad/s\].
     pub fn start_at(&mut self, q: &SVector<f64, N>, velocity: &SVector<f64, N>) {
         self.previous_position = *q;
         self.stage1 = *velocity;
@@ -120,8 +120,8 @@ impl<const N: usize> VelocityEstimator<N> {
         self.initialised
     }
 
-    /// Feeds position `q` [rad] measured `dt` [s] after the previous one; returns the velocity
-    /// estimate [rad/s]. The first sample after construction or [`reset`](Self::reset) returns
+    /// Feeds position `q` \[rad\] measured `dt` \[s\] after the previous one; returns the velocity
+    /// estimate \[rad/s\]. The first sample after construction or [`reset`](Self::reset) returns
     /// zero (the observer assumes a start from rest unless given a velocity).
     pub fn update(&mut self, q: &SVector<f64, N>, dt: f64) -> SVector<f64, N> {
         if !self.initialised {

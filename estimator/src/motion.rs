@@ -34,16 +34,7 @@ pub struct Trajectory<const N: usize> {
 
 /// Reads a trajectory log, CSV with header `t,q1..qn,tau1..taun` (s, rad, Nm); other columns ignored.
 pub fn read_log_csv<const N: usize, R: Read>(reader: R) -> Result<Trajectory<N>, EstimatorError> {
-    let mut rdr = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .comment(Some(b'#'))
-        .from_reader(reader);
-    let header: Vec<String> = rdr
-        .headers()
-        .map_err(|e| EstimatorError::Csv(e.to_string()))?
-        .iter()
-        .map(str::to_string)
-        .collect();
+    let (mut rdr, header) = crate::samples::open_csv(reader)?;
     let col = |name: String| -> Result<usize, EstimatorError> {
         header
             .iter()

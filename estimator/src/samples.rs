@@ -160,10 +160,11 @@ fn find_group<const N: usize>(
     Ok(Some(cols))
 }
 
-/// Reads static samples of an `N`-joint robot from CSV (format in the module docs).
-pub fn read_csv<const N: usize, R: Read>(
+/// A CSV reader with the conventions of every estimator input file (cells trimmed, `#`
+/// comment lines) and its header row.
+pub(crate) fn open_csv<R: Read>(
     reader: R,
-) -> Result<Vec<StaticSample<N>>, EstimatorError> {
+) -> Result<(csv::Reader<R>, Vec<String>), EstimatorError> {
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .comment(Some(b'#'))
@@ -174,6 +175,14 @@ pub fn read_csv<const N: usize, R: Read>(
         .iter()
         .map(str::to_string)
         .collect();
+    Ok((rdr, header))
+}
+
+/// Reads static samples of an `N`-joint robot from CSV (format in the module docs).
+pub fn read_csv<const N: usize, R: Read>(
+    reader: R,
+) -> Result<Vec<StaticSample<N>>, EstimatorError> {
+    let (mut rdr, header) = open_csv(reader)?;
     let cq = find_group::<N>(&header, "q", true)?;
     let ct = find_group::<N>(&header, "tau", true)?;
     let cg = find_group::<N>(&header, "g", true)?;

@@ -451,6 +451,49 @@ fn non_finite_or_out_of_range_application_values_never_reach_the_wire() {
 }
 
 #[test]
+fn nan_or_negative_limits_fall_back_to_the_defaults() {
+    // a negative stiffness bound used to panic in f64::clamp; a NaN step limit let any jump
+    // through; a negative one moved the set-point away from the target
+    let defaults = SessionConfig::default();
+    let mut rig = Rig::new(SessionConfig {
+        max_joint_step: f64::NAN,
+        max_added_torque_step: -0.01,
+        max_joint_stiffness: -1.0,
+        ..defaults
+    });
+    let effective = *rig.session.config();
+    assert_eq!(effective.max_joint_step, defaults.max_joint_step);
+    assert_eq!(
+        effective.max_added_torque_step,
+        defaults.max_added_torque_step
+    );
+    assert_eq!(effective.max_joint_stiffness, defaults.max_joint_stiffness);
+    rig.session
+        .request(RequestKind::StartCommandMode, KrlStrategy::JointImpedance);
+    rig.cycle(&with(1, |_| {}), &DesiredCommand::default());
+    let mirror: [f64; 7] = expected_mirror().map(f64::from);
+    let mut target = mirror;
+    target[0] += 0.5;
+    let desired = DesiredCommand {
+        joint_position: Some(target),
+        added_torque: [1.0; 7],
+        joint_stiffness: [1e9; 7],
+        ..Default::default()
+    };
+    let r = rig.cycle(
+        &with(2, |m| m.interface.state = InterfaceState::Command),
+        &desired,
+    );
+    let step = f64::from(r.jnt_pos()[0]) - mirror[0];
+    assert!(
+        step > 0.0 && step <= defaults.max_joint_step + 1e-6,
+        "step {step}"
+    );
+    assert!((f64::from(r.add_jnt_trq()[0]) - defaults.max_added_torque_step).abs() < 1e-7);
+    assert_eq!(r.jnt_stiffness(), [5000.0; 7]);
+}
+
+#[test]
 fn replies_are_emitted_once_per_measurement() {
     let mut rig = Rig::new(SessionConfig::default());
     assert_eq!(

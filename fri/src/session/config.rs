@@ -61,6 +61,38 @@ impl Default for SessionConfig {
     }
 }
 
+impl SessionConfig {
+    /// This configuration with every NaN or negative limit replaced by its default (warned).
+    pub(crate) fn with_valid_limits(mut self) -> Self {
+        let defaults = Self::default();
+        for (name, value, default) in [
+            (
+                "max_joint_step",
+                &mut self.max_joint_step,
+                defaults.max_joint_step,
+            ),
+            (
+                "max_added_torque_step",
+                &mut self.max_added_torque_step,
+                defaults.max_added_torque_step,
+            ),
+            (
+                "max_joint_stiffness",
+                &mut self.max_joint_stiffness,
+                defaults.max_joint_stiffness,
+            ),
+        ] {
+            if value.is_nan() || *value < 0.0 {
+                tracing::warn!(
+                    "session limit {name} = {value} is not a number >= 0; using the default {default}"
+                );
+                *value = default;
+            }
+        }
+        self
+    }
+}
+
 /// What the application wants to command this cycle; the session turns it into a command the
 /// controller will accept (mirroring, frozen flags, step limits).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

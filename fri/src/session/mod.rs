@@ -167,8 +167,11 @@ pub struct Session {
 }
 
 impl Session {
-    /// A new session; nothing received yet.
+    /// A new session; nothing received yet. A NaN or negative limit in `config` (which would
+    /// panic in the gain clamp or silently disable or invert the step limit) is replaced by its
+    /// documented default with a warning; [`Session::config`] shows the limits in effect.
     pub fn new(config: SessionConfig) -> Self {
+        let config = config.with_valid_limits();
         Self {
             selected_strategy: config.default_strategy,
             config,

@@ -173,9 +173,10 @@ impl<const N: usize> Model<N> {
                     finite(&format!("joint {} axis", joint.name), &joint.axis.xyz.0)?;
                     let axis = Vector3::from(joint.axis.xyz.0);
                     let norm = axis.norm();
-                    if norm < 1e-12 {
+                    // an overflowing norm would normalise the axis to zero just as silently
+                    if !(1e-12..=f64::MAX).contains(&norm) {
                         return Err(urdf_error(format!(
-                            "joint `{}` has a zero axis",
+                            "joint `{}` has a zero axis or one whose length overflows",
                             joint.name
                         )));
                     }

@@ -292,6 +292,12 @@ fn malformed_urdf_is_a_typed_error() {
             "zero axis",
         ),
         (
+            // |axis| overflows to infinity: the normalised axis used to collapse to zero and the
+            // joint silently turned about an arbitrary axis
+            LWR_URDF.replace("<axis xyz=\"0 0 1\"/>", "<axis xyz=\"1e308 1e308 0\"/>"),
+            "overflowing axis",
+        ),
+        (
             LWR_URDF.replace("type=\"revolute\"", "type=\"floating\""),
             "floating",
         ),

@@ -447,3 +447,59 @@ async fn iceoryx2_subscriber_receives_the_service_state() {
     drop(driver.stop());
     h.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn fri_ctl_talks_to_the_running_service() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = test_config(dir.path());
+    let h = Harness::start(config, dir).await;
+    let driver = MockDriver::spawn(sim(false, 13), h.fri, lockstep()).unwrap();
+    let mut c = h.client().await;
+    wait_connected(&mut c).await;
+    let socket = h.socket.clone();
+    let run = |args: Vec<String>| {
+        let socket = socket.clone();
+        tokio::task::spawn_blocking(move || {
+            std::process::Command::new(env!("CARGO_BIN_EXE_fri-ctl"))
+                .args(&args)
+                .arg("--socket")
+                .arg(&socket)
+                .output()
+                .unwrap()
+        })
+    };
+    let out = run(vec!["status".into(), "--json".into()]).await.unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let status: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(status["connected"], true);
+    let out = run([
+        "apply-payload",
+        "--mass",
+        "1.5",
+        "--com",
+        "0,0.01,-0.02",
+        "--json",
+    ]
+    .map(String::from)
+    .to_vec())
+    .await
+    .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let out = run(["apply-payload", "--mass", "-1", "--com", "0,0,0"]
+        .map(String::from)
+        .to_vec())
+    .await
+    .unwrap();
+    assert_eq!(out.status.code(), Some(64), "{out:?}");
+    let status = call(&mut c, Command::Status).await.unwrap();
+    assert_eq!(status["payload"]["mass"], 1.5);
+    assert_eq!(status["payload"]["com"][2], -0.02);
+    let out = run(vec!["stop".into()]).await.unwrap();
+    assert!(out.status.success());
+    let out = run(["tare", "--poses", "2"].map(String::from).to_vec())
+        .await
+        .unwrap();
+    assert_eq!(out.status.code(), Some(5), "tare while stopped: {out:?}");
+    drop(driver.stop());
+    h.stop().await;
+}

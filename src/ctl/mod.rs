@@ -15,8 +15,9 @@ use crate::operator::protocol::{CollisionAction, Command, ErrorCode, OperatorErr
 
 /// Exit status: success.
 pub const EXIT_OK: u8 = 0;
-/// Exit status: the service could not be reached (not running, wrong `--socket`, permissions).
-pub const EXIT_UNREACHABLE: u8 = 2;
+/// Exit status: the service could not be reached (not running, wrong `--socket`, permissions);
+/// EX_UNAVAILABLE of sysexits.h (2 is clap's usage error).
+pub const EXIT_UNREACHABLE: u8 = 69;
 /// Exit status: the command ran and failed (`failed`, `internal`).
 pub const EXIT_FAILED: u8 = 3;
 /// Exit status: aborted by a collision or an operator stop.
@@ -102,15 +103,10 @@ pub enum OperatorCommand {
     /// Apply a payload to the observer (persisted).
     ApplyPayload {
         /// Mass, kg.
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         mass: f64,
         /// Centre of mass in frame 7, m: X,Y,Z.
-        #[arg(
-            long,
-            value_delimiter = ',',
-            num_args = 3,
-            allow_negative_numbers = true
-        )]
+        #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
         com: Vec<f64>,
         /// Connection options.
         #[command(flatten)]
@@ -123,10 +119,10 @@ pub enum OperatorCommand {
         /// What to do.
         action: CollisionArg,
         /// Per-joint thresholds, Nm: 7 comma-separated values.
-        #[arg(long, value_delimiter = ',', num_args = 7)]
+        #[arg(long, value_delimiter = ',')]
         thresholds: Option<Vec<f64>>,
         /// Per-joint observer gains, 1/s: 7 comma-separated values.
-        #[arg(long, value_delimiter = ',', num_args = 7)]
+        #[arg(long, value_delimiter = ',')]
         gains: Option<Vec<f64>>,
         /// Connection options.
         #[command(flatten)]
@@ -168,12 +164,7 @@ pub enum OperatorCommand {
 #[derive(Debug, Clone, Args)]
 pub struct PatternArgs {
     /// Pick pose, rad: 7 comma-separated values (default: the current pose).
-    #[arg(
-        long,
-        value_delimiter = ',',
-        num_args = 7,
-        allow_negative_numbers = true
-    )]
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     pub around: Option<Vec<f64>>,
     /// Number of poses (default from the service config, 10).
     #[arg(long)]
@@ -296,8 +287,35 @@ pub fn exit_code(e: &OperatorError) -> u8 {
     }
 }
 
+/// Checks the lengths of the list arguments (clap splits them but does not count them).
+fn check_lists(cmd: &OperatorCommand) -> Result<(), String> {
+    let check = |name: &str, v: &Option<Vec<f64>>, n: usize| match v {
+        Some(v) if v.len() != n => Err(format!(
+            "--{name} needs {n} comma-separated values, got {}",
+            v.len()
+        )),
+        _ => Ok(()),
+    };
+    match cmd {
+        OperatorCommand::ApplyPayload { com, .. } => check("com", &Some(com.clone()), 3),
+        OperatorCommand::Tare { pattern, .. }
+        | OperatorCommand::EstimatePayload { pattern, .. } => check("around", &pattern.around, 7),
+        OperatorCommand::Collision {
+            thresholds, gains, ..
+        } => {
+            check("thresholds", thresholds, 7)?;
+            check("gains", gains, 7)
+        }
+        _ => Ok(()),
+    }
+}
+
 /// Runs one operator subcommand; returns the process exit code.
 pub fn run(cmd: &OperatorCommand) -> ExitCode {
+    if let Err(e) = check_lists(cmd) {
+        eprintln!("error: {e}");
+        return ExitCode::from(EXIT_USAGE);
+    }
     let (command, conn) = cmd.split();
     let runtime = match tokio::runtime::Builder::new_current_thread()
         .enable_all()

@@ -162,6 +162,7 @@ fn run(
     let mut next = Instant::now();
     while !stop.load(Ordering::Acquire) && !sim.is_finished() {
         let sent_at = Instant::now();
+        let expected_seq = sim.measurement().header.send_seq_count;
         if sim.measurement().emit(&mut out).is_ok() {
             let _ = socket.send_to(&out, service);
             counters.sent.fetch_add(1, Ordering::Relaxed);
@@ -177,7 +178,11 @@ fn run(
             let _ = socket.set_read_timeout(Some((deadline - now).max(Duration::from_micros(50))));
             match socket.recv_from(&mut buf) {
                 Ok((n, from)) if from == service && n == CMD_LEN => {
-                    if let Ok(c) = Command::parse(&buf[..n]) {
+                    // Only the answer to this measurement counts; a late answer to an earlier
+                    // one is discarded (the controller would count it as stale).
+                    if let Ok(c) = Command::parse(&buf[..n])
+                        && c.header.refl_seq_count == expected_seq
+                    {
                         latency_s = sent_at.elapsed().as_secs_f64();
                         answer = Some(c);
                         break;

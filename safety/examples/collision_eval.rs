@@ -1,18 +1,22 @@
-//! Evaluation of the payload-compensated collision detector on a simulated LWR 4+.
+//! Evaluation of the payload-compensated collision detector on mock-robot's simulated LWR 4+.
 //!
 //! Run: `cargo run --release -p safety --example collision_eval -- [--out DIR] [--hours H]
 //! [--contacts N] [--seed S]` (defaults: target/collision-eval, 1 h, 200 contacts per campaign,
 //! seed 2017). Writes CSV and SVG files into DIR and a Markdown summary to stdout.
 //!
-//! Simulation (tests/support): the "true" arm is the lwr4 link set with a seeded Gaussian
-//! perturbation (lwr4-model.md §4 sigmas on mass and first moment, inertia about the CoM scaled by
-//! N(1, 0.05²)) plus the paper's 3.028 kg payload (CoM 0.119 m on z7, cylinder inertia), integrated
-//! with semi-implicit Euler at 5 kHz. The joint-impedance controller runs at 5 kHz on the
-//! controller model = lwr4 + `controller_model_example` perturbation of lwr4-golden.json, without
-//! the payload. The observer samples at 1 kHz: positions rounded to f32 (FRI wire), link torques
-//! with white noise σ = 0.05 Nm; q̇ from positions with the default filter. The observer's model is
-//! the nominal lwr4 (so it is off from the truth by the perturbation), and its payload is the
-//! paper's 10-sample estimate (eq. 47: 3.059 kg, CoM (−2.8, 11, 128.3) mm), gravity only (eq. 48).
+//! Every run is a `mock_robot::Simulation` (docs/mock-robot.md): the true arm is `lwr4()` with
+//! the paper's 3.028 kg payload (CoM 0.119 m on z7, cylinder inertia), rotor inertia and
+//! motor-side friction, integrated at 5 kHz under the controller's joint position strategy; the
+//! controller's model is seeded-perturbed (lwr4-model.md §4) and has no payload; torque sensors
+//! have noise, offset, drift and quantisation; contacts are mock-robot scenario contacts. The
+//! harness is the remote: `fri::session` answers every measurement, takes the controller to
+//! command mode through the KRL handshake and streams the trajectory's set-points. Every run
+//! first picks: ten static poses around "pick", payload estimated with `estimator`
+//! (Δτ = msrJntTrq − the controller's gravity vector), then moves to the run's start pose.
+//! The observers see only what the controller reports: msrJntPos, msrJntTrq and `data.gravity`
+//! (`GravitySource::Controller`), with the nominal `lwr4()` for M and C; the controller-style
+//! signal is the packet's estExtJntTrq. Truth (contact onset, link, τ_ext) comes from the
+//! simulation's truth accessors.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 #[path = "../tests/support/mod.rs"]
@@ -21,19 +25,27 @@ mod support;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use dynamics::{Data, InertialParameters, Model, lwr4, point_jacobian, rnea};
+use dynamics::{Data, InertialParameters, Model, lwr4, point_jacobian};
+use estimator::estimate::PayloadEstimate;
+use estimator::samples::StaticSample;
+use fri::handshake::{HandshakeStatus, KrlStatus, KrlStrategy, RequestKind};
+use fri::session::{DesiredCommand, Session, SessionConfig};
+use fri::wire::{CMD_LEN, InterfaceState, MSR_LEN, Measurement};
+use mock_robot::contact::{ContactProfile, ContactSpec};
+use mock_robot::{Simulation, SimulationConfig};
 use nalgebra::Vector3;
 use plotters::prelude::*;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use safety::{
-    CollisionDetector, Detection, DetectorConfig, MomentumObserver, ObserverConfig, ObserverInput,
-    PayloadCompensation, VelocityFilter,
+    CollisionDetector, Detection, DetectorConfig, GravitySource, MomentumObserver, ObserverConfig,
+    ObserverInput, PayloadCompensation, VelocityFilter,
 };
+use std::net::SocketAddr;
+use std::time::{Duration, Instant};
 use support::*;
 
 const T: f64 = 1e-3;
-const SUBSTEPS: usize = 5;
 const THRESHOLD: f64 = 6.0;
 const GAIN: f64 = 100.0;
 
@@ -67,73 +79,241 @@ fn parse_args() -> Args {
     args
 }
 
-/// The simulated world of one run.
+/// The paper's "pick" pose (0, 30, 0, −60, 0, 60, 0) deg, where every run starts.
+const PICK_DEG: [f64; 7] = [0.0, 30.0, 0.0, -60.0, 0.0, 60.0, 0.0];
+
+/// Ten static poses around "pick" (pick + 7° · u_k, lwr4-model.md §4; the same as
+/// mock-robot/scenarios/static-poses.toml), deg.
+const STATIC_POSES_DEG: [[f64; 7]; 10] = [
+    [-1.201, 33.2487, -3.695, -57.9595, -2.5673, 61.4777, -5.2765],
+    [4.598, 29.4974, -0.3901, -62.919, 1.8655, 55.9554, -3.553],
+    [-3.603, 25.7461, 2.9149, -53.8784, 6.2982, 64.4332, -1.8296],
+    [2.196, 35.9948, 6.2198, -58.8379, -3.269, 58.9109, -0.1061],
+    [-6.0051, 32.2436, -4.4752, -63.7974, 1.1637, 53.3886, 1.6174],
+    [-0.2061, 28.4923, -1.1703, -54.7569, 5.5965, 61.8663, 3.3409],
+    [5.5929, 24.741, 2.1347, -59.7164, -3.9708, 56.344, 5.0644],
+    [-2.6081, 34.9897, 5.4396, -64.6759, 0.462, 64.8217, 6.7878],
+    [3.1909, 31.2384, -5.2554, -55.6353, 4.8947, 59.2995, -5.4887],
+    [
+        -5.0101, 27.4871, -1.9505, -60.5948, -4.6725, 53.7772, -3.7652,
+    ],
+];
+
+/// Time given to the FRI handshake (quality up to PERFECT, MON → CMD) before the
+/// pick-estimate-and-move sequence starts, s.
+const HANDSHAKE_S: f64 = 1.0;
+/// Dwell at each static pose, s; τ_J, q and the controller's g(q) are averaged over its second
+/// half.
+const DWELL_S: f64 = 2.0;
+/// Largest set-point step per cycle the FRI session may send, rad.
+const MAX_JOINT_STEP_RAD: f64 = 1.5e-3;
+
+fn deg(q: &[f64; 7]) -> V7 {
+    V7::from_fn(|j, _| q[j].to_radians())
+}
+
+/// The simulated world of one run: mock-robot's controller and arm (payload 3.028 kg at
+/// (0, 0, 0.119) m, perturbed controller model without it, torque sensors with noise, offset,
+/// drift and quantisation, friction, contacts from the scenario), driven in command mode
+/// (joint position strategy) through `fri::session` and the KRL handshake. Every run first
+/// picks: it visits the ten static poses, estimates the payload from them with `estimator`
+/// (eq. 26, Δτ = τ_J − g_ctrl), then moves to the run's start pose; experiment time 0 is
+/// `t_start` of the simulation clock.
 struct World {
     nominal: Model<7>,
-    plant: Plant,
-    controller: Impedance,
-    controller_model: Model<7>,
-    controller_data: Data<7>,
-    sensors: Sensors,
-    rng: StdRng,
+    sim: Simulation,
+    session: Session,
+    desired: DesiredCommand,
+    epoch: Instant,
+    msr: Measurement,
+    /// Simulation time of experiment time 0, s (a whole number of cycles).
+    t_start: f64,
+    /// Static payload estimate of this run (set by `new`).
+    estimate: Option<PayloadEstimate>,
+}
+
+/// A contact of the experiment (experiment time) as a mock-robot scenario contact.
+fn contact_spec(c: &Contact, t_start: f64) -> ContactSpec {
+    let (onset, duration) = match c.profile {
+        Profile::HalfSine { start, duration } => (start, duration),
+        Profile::Box { .. } | Profile::Ramp { .. } => {
+            panic!("the mock-robot harness only uses half-sine contacts")
+        }
+    };
+    ContactSpec {
+        link: c.link + 1,
+        point_m: c.point.into(),
+        onset_s: onset + t_start,
+        profile: ContactProfile::HalfSine {
+            peak_force_n: c.force.into(),
+            duration_s: duration,
+        },
+    }
 }
 
 impl World {
-    fn new(seed: u64, q0: &V7) -> Self {
-        let nominal = lwr4();
-        let mut rng = StdRng::seed_from_u64(seed);
-        let true_links = random_links(nominal.links(), &mut rng, 0.05);
-        let plant_model = nominal
-            .with_links(true_links)
-            .with_payload(&heavy_payload_with_inertia());
-        let controller_model = nominal.with_links(perturbed_links(nominal.links(), &CONTROLLER_DP));
-        let mut controller = Impedance::new(
-            controller_model.clone(),
-            default_stiffness(),
-            &plant_model,
-            q0,
-            0.7,
-        );
-        let mut plant = Plant::new(plant_model, *q0, Integrator::SemiImplicitEuler);
-        plant.settle(&mut controller, q0, 1.0);
-        let controller_data = Data::new(&controller_model);
-        Self {
-            nominal,
-            plant,
-            controller,
-            controller_model,
-            controller_data,
-            sensors: Sensors::new(0.05, true),
-            rng,
+    /// A run with robot seed `seed` (controller-model perturbation, sensor offsets and noise)
+    /// that ends its pick-estimate sequence at rest at `q0`; `contacts` in experiment time.
+    fn new(seed: u64, q0: &V7, contacts: &[Contact]) -> Self {
+        let pick = deg(&PICK_DEG);
+        let mut waypoints = vec![pick];
+        waypoints.extend(STATIC_POSES_DEG.iter().map(deg));
+        waypoints.push(*q0);
+        let prep = Quintic::new(&waypoints, 0.5, 0.5, DWELL_S);
+        let t_start = ((HANDSHAKE_S + prep.duration()) / T).ceil() * T;
+        let config = SimulationConfig {
+            name: "collision_eval".into(),
+            seed,
+            initial_q_deg: PICK_DEG,
+            contacts: contacts.iter().map(|c| contact_spec(c, t_start)).collect(),
+            ..SimulationConfig::default()
+        };
+        let sim = Simulation::new(config).expect("valid mock-robot configuration");
+        let msr = *sim.measurement();
+        let mut world = Self {
+            nominal: lwr4(),
+            sim,
+            // The session's default step limit (0.2 mrad per cycle = 0.2 rad/s) would clip the
+            // trajectories (up to 1 rad/s); 1.5 mrad stays below the controller's jump rule
+            // (velocity limit × cycle ≥ 1.92 mrad).
+            session: Session::new(SessionConfig {
+                max_joint_step: MAX_JOINT_STEP_RAD,
+                ..SessionConfig::default()
+            }),
+            desired: DesiredCommand::default(),
+            epoch: Instant::now(),
+            msr,
+            t_start,
+            estimate: None,
+        };
+        world.enter_command_mode();
+        world.estimate = Some(world.pick_and_estimate(&prep));
+        world
+    }
+
+    /// One controller cycle: `fri::session` answers the current measurement with the desired
+    /// command, the simulation advances.
+    fn cycle(&mut self) {
+        let mut msr_bytes = [0u8; MSR_LEN];
+        self.msr.emit(&mut msr_bytes).expect("measurement encodes");
+        let now = self.epoch + Duration::from_secs_f64(self.sim.time_s());
+        let mut out = [0u8; CMD_LEN];
+        let controller: SocketAddr = "127.0.0.1:49939".parse().expect("address");
+        self.session
+            .step(&msr_bytes, controller, now, &self.desired, &mut out)
+            .expect("session answers the controller");
+        self.sim.submit_datagram(&out, 0.0);
+        self.msr = *self.sim.advance();
+    }
+
+    fn in_command(&self) -> bool {
+        self.msr.interface.state == InterfaceState::Command
+            && HandshakeStatus::read_from_measurement(&self.msr).status == KrlStatus::CommandActive
+    }
+
+    /// Waits for quality, requests joint-position command mode, holds until `HANDSHAKE_S`.
+    fn enter_command_mode(&mut self) {
+        while self.sim.time_s() < 0.2 {
+            self.cycle();
         }
+        self.session
+            .request(RequestKind::StartCommandMode, KrlStrategy::JointPosition);
+        while self.sim.time_s() < HANDSHAKE_S - 0.5 * T {
+            self.cycle();
+        }
+        assert!(
+            self.in_command(),
+            "command mode not reached: {:?}",
+            HandshakeStatus::read_from_measurement(&self.msr)
+        );
     }
 
-    /// Measures at the current tick: observer input, and the controller-style external torque
-    /// estimate RNEA_ctrl(q, q̇, q̈) − τ_J (true q̇, q̈: a best case for the controller's signal).
-    fn measure(&mut self, trajectory: &dyn Trajectory, t: f64) -> (ObserverInput<7>, V7) {
-        let tau = self
-            .controller
-            .torque(&self.plant.q, &self.plant.qd, &trajectory.sample(t));
-        let (q_m, tau_m) = self.sensors.measure(&mut self.rng, &self.plant.q, &tau);
-        let model_torque = rnea(
-            &self.controller_model,
-            &mut self.controller_data,
-            &self.plant.q,
-            &self.plant.qd,
-            &self.plant.qdd,
-        );
-        (ObserverInput::new(q_m, tau_m, T), model_torque - tau_m)
+    /// Runs the pick sequence `prep` (experiment time −(t_start − HANDSHAKE_S) … 0): averages
+    /// q, τ_J and the controller's g(q) over the second half of every dwell and estimates the
+    /// payload from these static samples.
+    fn pick_and_estimate(&mut self, prep: &Quintic) -> PayloadEstimate {
+        let mut samples = Vec::new();
+        let (mut still_since, mut last_q) = (0.0_f64, V7::repeat(f64::NAN));
+        let mut sums = (V7::zeros(), V7::zeros(), V7::zeros(), 0usize);
+        let flush = |sums: &mut (V7, V7, V7, usize), samples: &mut Vec<StaticSample<7>>| {
+            if sums.3 > 100 {
+                let n = sums.3 as f64;
+                samples.push(StaticSample::new(sums.0 / n, sums.1 / n, sums.2 / n));
+            }
+            *sums = (V7::zeros(), V7::zeros(), V7::zeros(), 0);
+        };
+        while self.sim.time_s() < self.t_start - 0.5 * T {
+            let t_prep = self.sim.time_s() - HANDSHAKE_S;
+            let (q_d, qd_d, _) = prep.sample(t_prep + T);
+            if qd_d.amax() > 0.0 || q_d != last_q {
+                flush(&mut sums, &mut samples);
+                still_since = t_prep;
+                last_q = q_d;
+            } else if t_prep - still_since >= 0.5 * DWELL_S {
+                let d = &self.msr.data;
+                sums.0 += V7::from(d.msr_jnt_pos);
+                sums.1 += V7::from(d.msr_jnt_trq);
+                sums.2 += V7::from(d.gravity);
+                sums.3 += 1;
+            }
+            self.desired.joint_position = Some(q_d.into());
+            self.cycle();
+        }
+        // The final dwell at q0 is cut at t_start: it is the settling time, not a sample.
+        estimator::estimate::estimate_direct(
+            &self.nominal,
+            &samples,
+            &estimator::estimate::EstimateOptions::default(),
+        )
+        .expect("static payload estimate")
     }
 
-    fn advance(&mut self, trajectory: &dyn Trajectory, contacts: &[Contact]) {
-        self.plant.advance_controlled(
-            &mut self.controller,
-            trajectory,
-            T,
-            SUBSTEPS,
-            contacts,
-            &V7::zeros(),
-        );
+    /// This run's static payload estimate.
+    fn estimate(&self) -> &PayloadEstimate {
+        self.estimate.as_ref().expect("estimated in World::new")
+    }
+
+    /// Gravity-only payload compensation from this run's estimate (eq. 48).
+    fn payload(&self) -> PayloadCompensation {
+        let e = self.estimate();
+        PayloadCompensation::gravity_from_com(e.mass, Vector3::from(e.com))
+    }
+
+    /// The estimate with an assumed inertia (cylinder r = 5 cm, h = 10 cm about the CoM).
+    fn payload_full(&self) -> PayloadCompensation {
+        let e = self.estimate();
+        PayloadCompensation::Full(InertialParameters::from_com(
+            e.mass,
+            Vector3::from(e.com),
+            heavy_payload_with_inertia().inertia_about_com(),
+        ))
+    }
+
+    /// Experiment time of the current measurement, s.
+    fn time(&self) -> f64 {
+        self.sim.time_s() - self.t_start
+    }
+
+    /// The current measurement as the observer sees it (msrJntPos, msrJntTrq, the controller's
+    /// gravity vector) and the controller's own external-torque estimate estExtJntTrq.
+    fn measure(&self) -> (ObserverInput<7>, V7) {
+        let d = &self.msr.data;
+        let mut input = ObserverInput::new(V7::from(d.msr_jnt_pos), V7::from(d.msr_jnt_trq), T);
+        input.controller_gravity = Some(V7::from(d.gravity));
+        (input, V7::from(d.est_ext_jnt_trq))
+    }
+
+    /// Commands the set-point of `trajectory` at the next cycle and runs one cycle.
+    fn advance(&mut self, trajectory: &dyn Trajectory) {
+        let (q_d, _, _) = trajectory.sample(self.time() + T);
+        self.desired.joint_position = Some(q_d.into());
+        self.cycle();
+        debug_assert!(self.in_command());
+    }
+
+    /// True joint angles (rad) and velocities (rad/s).
+    fn true_state(&self) -> (V7, V7) {
+        (*self.sim.q(), *self.sim.qd())
     }
 }
 
@@ -156,32 +336,22 @@ impl Variant {
         }
     }
 
-    /// Observer with this variant's gain and filter and the paper's gravity-only estimate.
-    fn observer(&self, model: &Model<7>) -> MomentumObserver<7> {
+    /// Observer with this variant's gain and filter and the run's gravity-only estimate.
+    fn observer(&self, model: &Model<7>, payload: PayloadCompensation) -> MomentumObserver<7> {
         let mut config = observer_config();
         config.gains = V7::repeat(self.gain);
         config.velocity_filter = self.filter;
         let mut o = MomentumObserver::new(model.clone(), config).unwrap();
-        o.set_payload(paper_estimate_gravity()).unwrap();
+        o.set_payload(payload).unwrap();
         o
     }
 }
 
+/// K_I = 100 1/s, exact ZOH, g(q) from the controller's packet (`data.gravity`, no payload).
 fn observer_config() -> ObserverConfig<7> {
-    ObserverConfig::new(T, GAIN)
-}
-
-fn paper_estimate_gravity() -> PayloadCompensation {
-    PayloadCompensation::gravity_from_com(PAPER_ESTIMATE_MASS, Vector3::from(PAPER_ESTIMATE_COM))
-}
-
-fn paper_estimate_full() -> PayloadCompensation {
-    let com = Vector3::from(PAPER_ESTIMATE_COM);
-    PayloadCompensation::Full(InertialParameters::from_com(
-        PAPER_ESTIMATE_MASS,
-        com,
-        heavy_payload_with_inertia().inertia_about_com(),
-    ))
+    let mut config = ObserverConfig::new(T, GAIN);
+    config.gravity_source = GravitySource::Controller;
+    config
 }
 
 fn observer(model: &Model<7>, payload: PayloadCompensation) -> MomentumObserver<7> {
@@ -348,7 +518,7 @@ fn fig6(seed: u64, report: &mut String) -> Fig6 {
     let mut waypoints = vec![q0];
     waypoints.extend(random_waypoints(&mut rng, 8));
     let trajectory = Quintic::new(&waypoints, 0.8, 0.5, 0.3);
-    let mut world = World::new(seed, &q0);
+    let nominal = lwr4();
     let duration = 20.0_f64.min(trajectory.duration());
     let contact_spec = [(1.0, 3usize), (8.0, 5), (17.0, 6)];
     let mut contacts = Vec::new();
@@ -356,7 +526,7 @@ fn fig6(seed: u64, report: &mut String) -> Fig6 {
         // Geometry in the link frame; force direction converted to base at the contact time.
         let (point, direction) = random_contact_geometry(&mut rng, link);
         let (q_at, _, _) = trajectory.sample(t0);
-        let force = to_base(&world.nominal, &q_at, link, &direction) * 50.0;
+        let force = to_base(&nominal, &q_at, link, &direction) * 50.0;
         contacts.push(Contact {
             link,
             point,
@@ -367,12 +537,12 @@ fn fig6(seed: u64, report: &mut String) -> Fig6 {
             },
         });
     }
-    let nominal = world.nominal.clone();
+    let mut world = World::new(seed, &q0, &contacts);
     let mut obs_unc = observer(&nominal, PayloadCompensation::None);
-    let mut obs_comp = observer(&nominal, paper_estimate_gravity());
+    let mut obs_comp = observer(&nominal, world.payload());
     let mut ctrl_filter = LowPass::new(GAIN);
     let det_cfg = DetectorConfig::<7>::default();
-    let mut obs_full = observer(&nominal, paper_estimate_full());
+    let mut obs_full = observer(&nominal, world.payload_full());
     let mut detectors: Vec<CollisionDetector<7>> = (0..4)
         .map(|_| CollisionDetector::new(det_cfg).unwrap())
         .collect();
@@ -385,7 +555,7 @@ fn fig6(seed: u64, report: &mut String) -> Fig6 {
     let ticks = (duration / T) as usize;
     for k in 0..ticks {
         let t = k as f64 * T;
-        let (input, ctrl_raw) = world.measure(&trajectory, t);
+        let (input, ctrl_raw) = world.measure();
         let ctrl = ctrl_filter.update(&ctrl_raw);
         let r_unc = obs_unc.step(&input);
         let r_comp = obs_comp.step(&input);
@@ -397,7 +567,7 @@ fn fig6(seed: u64, report: &mut String) -> Fig6 {
             && t > 0.05;
         if free {
             free_samples += 1;
-            peak_speed = peak_speed.max(world.plant.qd.amax());
+            peak_speed = peak_speed.max(world.true_state().1.amax());
         }
         for (i, s) in signals.iter().enumerate() {
             if free {
@@ -413,7 +583,7 @@ fn fig6(seed: u64, report: &mut String) -> Fig6 {
             }
         }
         rows.push((t, [signals[0], signals[1], signals[2]]));
-        world.advance(&trajectory, &contacts);
+        world.advance(&trajectory);
     }
     let names = [
         "(i) controller-style estimate, no payload",
@@ -422,6 +592,8 @@ fn fig6(seed: u64, report: &mut String) -> Fig6 {
         "(iv) residual, estimated payload incl. inertia (not in the paper)",
     ];
     writeln!(report, "### Fig. 6 reproduction (seed {seed}, {duration:.0} s, contacts 50 N / 200 ms half-sine at 1 s link 4, 8 s link 6, 17 s link 7)\n").unwrap();
+    let e = world.estimate();
+    writeln!(report, "Payload estimate of this run (10 static poses around pick, estimator::estimate_direct, Δτ = msrJntTrq − controller gravity): m = {:.3} kg (true 3.028), CoM = ({:.1}, {:.1}, {:.1}) mm (true (0, 0, 119)), condition number {:.0}.\n", e.mass, e.com[0] * 1e3, e.com[1] * 1e3, e.com[2] * 1e3, e.condition_number).unwrap();
     writeln!(report, "Peak joint speed in free motion: {peak_speed:.2} rad/s. Threshold 6 Nm, debounce 2, release at 80 % for 20 samples. Free motion = outside [t0, t0 + 1.2 s] of each contact; a re-trigger is an onset in (t0 + 0.3 s, t0 + 1.2 s], i.e. while the arm rebounds from the push (no reaction is executed in this simulation).\n").unwrap();
     writeln!(report, "| signal | peak \\|s\\| free motion [Nm] | free-motion time > 6 Nm | contacts detected (onset within 0.3 s) | re-triggers after a contact | false alarms in free motion |").unwrap();
     writeln!(report, "|---|---|---|---|---|---|").unwrap();
@@ -473,19 +645,19 @@ impl Trajectory for SetPoint {
 /// stops (trajectory time-scaled to zero over 0.5 s), waits until the contact has been released
 /// for 2 s, then resumes (time scale back to one over 0.5 s). The monitor runs the compensated
 /// residual (gravity-only, eq. 48, or with the payload inertia).
-fn fig6_with_reaction(seed: u64, payload: PayloadCompensation, label: &str, report: &mut String) {
+fn fig6_with_reaction(seed: u64, with_inertia: bool, label: &str, report: &mut String) {
     let mut rng = StdRng::seed_from_u64(seed ^ 0xF16);
     let q0 = V7::from_column_slice(&[0.0, 0.6, 0.0, -1.2, 0.0, 0.8, 0.0]);
     let mut waypoints = vec![q0];
     waypoints.extend(random_waypoints(&mut rng, 8));
     let trajectory = Quintic::new(&waypoints, 0.8, 0.5, 0.3);
-    let mut world = World::new(seed, &q0);
+    let nominal = lwr4();
     let contact_spec = [(1.0, 3usize), (8.0, 5), (17.0, 6)];
     let mut contacts = Vec::new();
     for &(t0, link) in &contact_spec {
         let (point, direction) = random_contact_geometry(&mut rng, link);
         let (q_at, _, _) = trajectory.sample(t0);
-        let force = to_base(&world.nominal, &q_at, link, &direction) * 50.0;
+        let force = to_base(&nominal, &q_at, link, &direction) * 50.0;
         contacts.push(Contact {
             link,
             point,
@@ -496,9 +668,15 @@ fn fig6_with_reaction(seed: u64, payload: PayloadCompensation, label: &str, repo
             },
         });
     }
-    let mut monitor =
-        safety::CollisionMonitor::new(world.nominal.clone(), safety::MonitorConfig::new(T, GAIN))
-            .unwrap();
+    let mut world = World::new(seed, &q0, &contacts);
+    let mut monitor_config = safety::MonitorConfig::new(T, GAIN);
+    monitor_config.observer.gravity_source = GravitySource::Controller;
+    let mut monitor = safety::CollisionMonitor::new(nominal, monitor_config).unwrap();
+    let payload = if with_inertia {
+        world.payload_full()
+    } else {
+        world.payload()
+    };
     monitor.set_payload(payload).unwrap();
     let ramp_s = 0.5;
     let (mut clock, mut scale, mut running) = (0.0_f64, 1.0_f64, true);
@@ -510,7 +688,7 @@ fn fig6_with_reaction(seed: u64, payload: PayloadCompensation, label: &str, repo
         let t = k as f64 * T;
         let (q, v, a) = trajectory.sample(clock);
         let setpoint = SetPoint(q, v * scale, a * scale * scale);
-        let (input, _) = world.measure(&setpoint, t);
+        let (input, _) = world.measure();
         let out = monitor.step(&input);
         match out.reaction {
             Some(safety::ReactionRequest::Pause { .. }) => {
@@ -530,7 +708,7 @@ fn fig6_with_reaction(seed: u64, payload: PayloadCompensation, label: &str, repo
         let target = if running { 1.0 } else { 0.0 };
         scale += (target - scale).clamp(-T / ramp_s, T / ramp_s);
         clock += scale * T;
-        world.advance(&setpoint, &contacts);
+        world.advance(&setpoint);
     }
     let detected = contact_spec
         .iter()
@@ -676,10 +854,12 @@ fn free_motion(seed: u64, hours: f64, variants: &[Variant]) -> Vec<FreeMotion> {
         let dwell = rng.random_range(0.0..1.0);
         waypoints.extend(random_waypoints(&mut rng, 200));
         let trajectory = Quintic::new(&waypoints, v_max, a_max, dwell);
-        let mut world = World::new(seed.wrapping_add(1000 + seg as u64), &q0);
+        let mut world = World::new(seed.wrapping_add(1000 + seg as u64), &q0, &[]);
         let nominal = world.nominal.clone();
-        let mut observers: Vec<MomentumObserver<7>> =
-            variants.iter().map(|v| v.observer(&nominal)).collect();
+        let mut observers: Vec<MomentumObserver<7>> = variants
+            .iter()
+            .map(|v| v.observer(&nominal, world.payload()))
+            .collect();
         let mut detectors: Vec<CollisionDetector<7>> = variants
             .iter()
             .map(|v| CollisionDetector::new(v.detector).unwrap())
@@ -687,7 +867,7 @@ fn free_motion(seed: u64, hours: f64, variants: &[Variant]) -> Vec<FreeMotion> {
         let ticks = (segment_s / T) as usize;
         for k in 0..ticks {
             let t = k as f64 * T;
-            let (input, _) = world.measure(&trajectory, t);
+            let (input, _) = world.measure();
             for ((obs, det), res) in observers
                 .iter_mut()
                 .zip(detectors.iter_mut())
@@ -704,7 +884,7 @@ fn free_motion(seed: u64, hours: f64, variants: &[Variant]) -> Vec<FreeMotion> {
                     }
                 }
             }
-            world.advance(&trajectory, &[]);
+            world.advance(&trajectory);
         }
         eprintln!(
             "free motion segment {}/{} done (v_max {v_max:.2} rad/s, a_max {a_max:.2} rad/s²)",
@@ -775,8 +955,7 @@ fn campaign(
         (n as f64 * spacing / 2.0) as usize + 10,
     ));
     let trajectory = Quintic::new(&waypoints, 0.7, 0.5, 0.5);
-    let mut world = World::new(seed ^ 0xC0, &q0);
-    let nominal = world.nominal.clone();
+    let nominal = lwr4();
     let mut data = Data::new(&nominal);
     let mut contacts = Vec::new();
     let mut records = Vec::new();
@@ -829,6 +1008,7 @@ fn campaign(
             ),
         });
     }
+    let mut world = World::new(seed ^ 0xC0, &q0, &contacts);
     let total = 1.0 + spacing * n as f64 + 1.0;
     let ticks = (total / T) as usize;
     let mut variants: Vec<(
@@ -840,7 +1020,7 @@ fn campaign(
         .iter()
         .map(|v| {
             (
-                v.observer(&nominal),
+                v.observer(&nominal, world.payload()),
                 CollisionDetector::new(v.detector).unwrap(),
                 None,
                 Campaign {
@@ -857,7 +1037,7 @@ fn campaign(
     let mut free_ticks = 0usize;
     for k in 0..ticks {
         let t = k as f64 * T;
-        let (input, _) = world.measure(&trajectory, t);
+        let (input, _) = world.measure();
         let in_window = records
             .iter()
             .position(|r| k >= r.window.0 && k <= r.window.1);
@@ -867,11 +1047,8 @@ fn campaign(
         if let Some(i) = in_window
             && records[i].ideal_delay_s.is_none()
         {
-            let q = world.plant.q;
-            let tau_ext = world
-                .plant
-                .external_torque(t, &q, &contacts[i..=i], &V7::zeros());
-            if tau_ext.amax() > THRESHOLD {
+            // Truth from the simulation: Σ J_pᵀ F of the contacts (one at a time).
+            if world.sim.external_torques().amax() > THRESHOLD {
                 records[i].ideal_delay_s = Some(t - records[i].start);
             }
         }
@@ -906,12 +1083,7 @@ fn campaign(
                 _ => {}
             }
         }
-        let current: Vec<Contact> = contacts
-            .iter()
-            .filter(|c| (t - c.profile.start()).abs() < 1.0)
-            .copied()
-            .collect();
-        world.advance(&trajectory, &current);
+        world.advance(&trajectory);
     }
     variants
         .into_iter()
@@ -1272,25 +1444,24 @@ fn neglected_inertia(seed: u64, report: &mut String) {
         let mut waypoints = vec![q0];
         waypoints.extend(random_waypoints(&mut rng, 6));
         let trajectory = Quintic::new(&waypoints, 1.0, a_max, 0.2);
-        let mut world = World::new(seed, &q0);
+        let mut world = World::new(seed, &q0, &[]);
         let nominal = world.nominal.clone();
         let mut obs = [
             observer(&nominal, PayloadCompensation::None),
-            observer(&nominal, paper_estimate_gravity()),
-            observer(&nominal, paper_estimate_full()),
+            observer(&nominal, world.payload()),
+            observer(&nominal, world.payload_full()),
         ];
         let mut peak = [0.0_f64; 3];
         let ticks = (20.0_f64.min(trajectory.duration()) / T) as usize;
         for k in 0..ticks {
-            let t = k as f64 * T;
-            let (input, _) = world.measure(&trajectory, t);
+            let (input, _) = world.measure();
             for (i, o) in obs.iter_mut().enumerate() {
                 let r = o.step(&input).residual.amax();
                 if k > 50 {
                     peak[i] = peak[i].max(r);
                 }
             }
-            world.advance(&trajectory, &[]);
+            world.advance(&trajectory);
         }
         writeln!(
             report,
@@ -1319,13 +1490,13 @@ fn main() {
     writeln!(report, "| residual | contacts that stopped the robot | stops | stops outside a contact | resumes | time stopped |\n|---|---|---|---|---|---|").unwrap();
     fig6_with_reaction(
         args.seed,
-        paper_estimate_gravity(),
+        false,
         "estimated payload, gravity only (eq. 48)",
         &mut report,
     );
     fig6_with_reaction(
         args.seed,
-        paper_estimate_full(),
+        true,
         "estimated payload incl. inertia",
         &mut report,
     );
@@ -1391,7 +1562,7 @@ fn main() {
     .unwrap();
     writeln!(
         report,
-        "{:.2} h simulated (segments of 300 s, each with its own perturbed plant, random waypoints, v_max 0.3–1.0 rad/s, a_max 0.2–0.6 rad/s²). The tuned per-joint thresholds are 3 × the peak |r_j| of a separate {:.2} h calibration run (other seed), at least 1.5 Nm.\n",
+        "{:.2} h simulated (segments of 300 s, each a mock-robot run with its own seed — controller-model perturbation, sensor offsets and noise — and its own payload estimate; random waypoints, v_max 0.3–1.0 rad/s, a_max 0.2–0.6 rad/s²). The tuned per-joint thresholds are 3 × the peak |r_j| of a separate {:.2} h calibration run (other seed), at least 1.5 Nm.\n",
         free_runs[0].hours,
         calibration[0].hours
     )

@@ -9,21 +9,12 @@ use dynamics::{
 use nalgebra::{SMatrix, SVector, Vector3, Vector4};
 use serde_json::Value;
 
+mod common;
+use common::{matrix, vector};
+
 fn golden() -> Value {
     let text = include_str!("fixtures/lwr4-golden.json");
     serde_json::from_str(text).unwrap()
-}
-
-fn vector<const N: usize>(v: &Value) -> SVector<f64, N> {
-    let items = v.as_array().unwrap();
-    assert_eq!(items.len(), N);
-    SVector::from_fn(|i, _| items[i].as_f64().unwrap())
-}
-
-fn matrix<const R: usize, const C: usize>(v: &Value) -> SMatrix<f64, R, C> {
-    let rows = v.as_array().unwrap();
-    assert_eq!(rows.len(), R);
-    SMatrix::from_fn(|i, j| rows[i].as_array().unwrap()[j].as_f64().unwrap())
 }
 
 /// The JSON holds 12 significant digits: compare at 1e-10 relative to the largest entry.

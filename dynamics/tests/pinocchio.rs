@@ -11,27 +11,14 @@ use dynamics::{
 use nalgebra::{DMatrix, SMatrix, SVector};
 use serde_json::Value;
 
+mod common;
+use common::{matrix, vector};
+
 const TOLERANCE: f64 = 1e-9;
 
 fn fixture() -> Value {
     let text = include_str!("fixtures/pinocchio-lwr4.json");
     serde_json::from_str(text).unwrap()
-}
-
-fn vector<const N: usize>(v: &Value) -> SVector<f64, N> {
-    let items = v.as_array().unwrap();
-    assert_eq!(items.len(), N);
-    SVector::from_fn(|i, _| items[i].as_f64().unwrap())
-}
-
-fn matrix<const R: usize, const C: usize>(v: &Value) -> SMatrix<f64, R, C> {
-    let rows = v.as_array().unwrap();
-    assert_eq!(rows.len(), R);
-    SMatrix::from_fn(|i, j| {
-        let row = rows[i].as_array().unwrap();
-        assert_eq!(row.len(), C);
-        row[j].as_f64().unwrap()
-    })
 }
 
 fn check<const R: usize, const C: usize>(

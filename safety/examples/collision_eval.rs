@@ -48,6 +48,13 @@ use support::*;
 const T: f64 = 1e-3;
 const THRESHOLD: f64 = 6.0;
 const GAIN: f64 = 100.0;
+/// Isolation level per joint = this × the joint's peak |r_j| in a free-motion calibration run.
+const ISOLATION_PEAK_FACTOR: f64 = 2.0;
+/// Smallest isolation level, Nm.
+const ISOLATION_FLOOR_NM: f64 = 0.2;
+/// A contact counts as away from its own joint's axis when that joint sees at least this
+/// static |τ_ext| (50 N with the force line ≥ 2 cm from the axis), Nm.
+const OFF_AXIS_NM: f64 = 1.0;
 
 struct Args {
     out: PathBuf,
@@ -279,6 +286,11 @@ impl World {
         PayloadCompensation::gravity_from_com(e.mass, Vector3::from(e.com))
     }
 
+    /// The estimate as a point mass in the full dynamics (`PayloadEstimate::to_point_mass`).
+    fn payload_point_mass(&self) -> PayloadCompensation {
+        PayloadCompensation::Full(self.estimate().to_point_mass())
+    }
+
     /// The estimate with an assumed inertia (cylinder r = 5 cm, h = 10 cm about the CoM).
     fn payload_full(&self) -> PayloadCompensation {
         let e = self.estimate();
@@ -324,6 +336,11 @@ struct Variant {
     gain: f64,
     filter: VelocityFilter,
     detector: DetectorConfig<7>,
+    /// Absolute per-joint isolation levels [Nm] (`CollisionDetector::set_isolation_levels`).
+    isolation_levels: Option<V7>,
+    /// Compensate the estimated payload as a point mass in the full dynamics (M, C, g) instead
+    /// of gravity only (eq. 48).
+    point_mass_dynamics: bool,
 }
 
 impl Variant {
@@ -333,11 +350,28 @@ impl Variant {
             gain,
             filter: VelocityFilter::default(),
             detector: DetectorConfig::default(),
+            isolation_levels: None,
+            point_mass_dynamics: false,
         }
     }
 
+    /// This variant's detector.
+    fn detector(&self) -> CollisionDetector<7> {
+        let mut d = CollisionDetector::new(self.detector).unwrap();
+        d.set_isolation_levels(self.isolation_levels).unwrap();
+        d
+    }
+
     /// Observer with this variant's gain and filter and the run's gravity-only estimate.
-    fn observer(&self, model: &Model<7>, payload: PayloadCompensation) -> MomentumObserver<7> {
+    fn observer(&self, world: &World) -> MomentumObserver<7> {
+        let (model, payload) = (
+            &world.nominal,
+            if self.point_mass_dynamics {
+                world.payload_point_mass()
+            } else {
+                world.payload()
+            },
+        );
         let mut config = observer_config();
         config.gains = V7::repeat(self.gain);
         config.velocity_filter = self.filter;
@@ -855,15 +889,10 @@ fn free_motion(seed: u64, hours: f64, variants: &[Variant]) -> Vec<FreeMotion> {
         waypoints.extend(random_waypoints(&mut rng, 200));
         let trajectory = Quintic::new(&waypoints, v_max, a_max, dwell);
         let mut world = World::new(seed.wrapping_add(1000 + seg as u64), &q0, &[]);
-        let nominal = world.nominal.clone();
-        let mut observers: Vec<MomentumObserver<7>> = variants
-            .iter()
-            .map(|v| v.observer(&nominal, world.payload()))
-            .collect();
-        let mut detectors: Vec<CollisionDetector<7>> = variants
-            .iter()
-            .map(|v| CollisionDetector::new(v.detector).unwrap())
-            .collect();
+        let mut observers: Vec<MomentumObserver<7>> =
+            variants.iter().map(|v| v.observer(&world)).collect();
+        let mut detectors: Vec<CollisionDetector<7>> =
+            variants.iter().map(Variant::detector).collect();
         let ticks = (segment_s / T) as usize;
         for k in 0..ticks {
             let t = k as f64 * T;
@@ -1020,8 +1049,8 @@ fn campaign(
         .iter()
         .map(|v| {
             (
-                v.observer(&nominal, world.payload()),
-                CollisionDetector::new(v.detector).unwrap(),
+                v.observer(&world),
+                v.detector(),
                 None,
                 Campaign {
                     label: v.label.clone(),
@@ -1106,6 +1135,9 @@ struct Stats {
     isolation_episode: f64,
     isolable: usize,
     isolation_episode_isolable: f64,
+    off_axis: usize,
+    isolation_onset_off_axis: f64,
+    isolation_episode_off_axis: f64,
 }
 
 fn stats(records: &[&ContactRecord]) -> Stats {
@@ -1127,7 +1159,20 @@ fn stats(records: &[&ContactRecord]) -> Stats {
         .iter()
         .filter(|r| r.own_joint_torque >= THRESHOLD)
         .collect();
+    let off_axis: Vec<&&&ContactRecord> = detected
+        .iter()
+        .filter(|r| r.own_joint_torque >= OFF_AXIS_NM)
+        .collect();
+    let share = |set: &[&&&ContactRecord], pick: fn(&ContactRecord) -> Option<usize>| {
+        frac(
+            set.iter().filter(|r| pick(r) == Some(r.link)).count(),
+            set.len(),
+        )
+    };
     Stats {
+        off_axis: off_axis.len(),
+        isolation_onset_off_axis: share(&off_axis, |r| r.onset_link),
+        isolation_episode_off_axis: share(&off_axis, |r| r.episode_link),
         contacts: records.len(),
         missed: records.len() - detected.len(),
         median_ms: percentile(&delays, 0.5),
@@ -1159,19 +1204,22 @@ fn stats(records: &[&ContactRecord]) -> Stats {
 
 fn stats_row(label: &str, s: &Stats) -> String {
     format!(
-        "| {label} | {} | {} | {:.1} | {:.1} | {:.0} % | {:.0} % | {:.0} % of {} |",
+        "| {label} | {} | {} | {:.1} | {:.1} | {:.0} % | {:.0} % | {:.0} % / {:.0} % of {} | {:.0} % of {} |",
         s.contacts,
         s.missed,
         s.median_ms,
         s.p95_ms,
         s.isolation_onset,
         s.isolation_episode,
+        s.isolation_onset_off_axis,
+        s.isolation_episode_off_axis,
+        s.off_axis,
         s.isolation_episode_isolable,
         s.isolable
     )
 }
 
-const STATS_HEADER: &str = "| | contacts | missed | delay median [ms] | delay p95 [ms] | isolation at onset | isolation over the contact | isolation over the contact, own-joint \\|τ_ext\\| ≥ 6 Nm |\n|---|---|---|---|---|---|---|---|";
+const STATS_HEADER: &str = "| | contacts | missed | delay median [ms] | delay p95 [ms] | isolation at onset | isolation over the contact | isolation at onset / over the contact, own-joint \\|τ_ext\\| ≥ 1 Nm (off-axis) | isolation over the contact, own-joint \\|τ_ext\\| ≥ 6 Nm |\n|---|---|---|---|---|---|---|---|---|";
 
 fn summarise_campaign(name: &str, campaigns: &[Campaign], per_link: bool, report: &mut String) {
     writeln!(report, "#### {name}\n").unwrap();
@@ -1237,7 +1285,11 @@ fn summarise_campaign(name: &str, campaigns: &[Campaign], per_link: bool, report
 
 /// File-name tag of a variant label.
 fn variant_tag(label: &str) -> String {
-    if label.contains("θ = (") {
+    if label.contains("point mass") {
+        "K100_point_mass_isolation_levels".to_string()
+    } else if label.contains("isolation levels") {
+        "K100_isolation_levels".to_string()
+    } else if label.contains("θ = (") {
         "K100_tuned".to_string()
     } else if label.contains("backward") {
         "K500_bd_debounce1".to_string()
@@ -1516,7 +1568,13 @@ fn main() {
     let calibration = free_motion(
         args.seed ^ 0xCA1,
         (args.hours * 0.5).max(0.05),
-        &[Variant::default_with_gain(GAIN)],
+        &[
+            Variant::default_with_gain(GAIN),
+            Variant {
+                point_mass_dynamics: true,
+                ..Variant::default_with_gain(GAIN)
+            },
+        ],
     );
     let tuned_thresholds = calibration[0].peak_per_joint.map(|p| (3.0 * p).max(1.5));
     let tuned = Variant {
@@ -1534,6 +1592,38 @@ fn main() {
             thresholds_nm: tuned_thresholds,
             ..DetectorConfig::default()
         },
+        isolation_levels: None,
+        point_mass_dynamics: false,
+    };
+    // Isolation levels from the same calibration run: 2 × peak |r_j|, at least 0.2 Nm.
+    let levels_from =
+        |peaks: &V7| peaks.map(|p| (ISOLATION_PEAK_FACTOR * p).max(ISOLATION_FLOOR_NM));
+    let isolation_levels = levels_from(&calibration[0].peak_per_joint);
+    let point_mass_levels = levels_from(&calibration[1].peak_per_joint);
+    let point_mass_with_levels = Variant {
+        label: format!(
+            "K = {GAIN}, θ = 6 Nm, payload as point mass in M, C, g, isolation levels ({}) Nm",
+            point_mass_levels
+                .iter()
+                .map(|x| format!("{x:.2}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        isolation_levels: Some(point_mass_levels),
+        point_mass_dynamics: true,
+        ..Variant::default_with_gain(GAIN)
+    };
+    let with_levels = Variant {
+        label: format!(
+            "K = {GAIN}, θ = 6 Nm, isolation levels ({}) Nm",
+            isolation_levels
+                .iter()
+                .map(|x| format!("{x:.2}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        isolation_levels: Some(isolation_levels),
+        ..Variant::default_with_gain(GAIN)
     };
     let variants = vec![
         Variant::default_with_gain(GAIN),
@@ -1547,8 +1637,12 @@ fn main() {
                 debounce_samples: 1,
                 ..DetectorConfig::default()
             },
+            isolation_levels: None,
+            point_mass_dynamics: false,
         },
         tuned,
+        with_levels,
+        point_mass_with_levels,
     ];
     eprintln!(
         "calibration done after {:.0} s",
@@ -1590,7 +1684,7 @@ fn main() {
     );
 
     writeln!(report, "### Detection delay, missed detections, isolation (50 N half-sine contacts on links 4–7 during motion)\n").unwrap();
-    writeln!(report, "Delay = first onset (debounce 2 included) − contact start; missed = no onset within the contact + 100 ms. Isolation at 50 % of θ; \"over the contact\" is the episode isolation reported at release.\n").unwrap();
+    writeln!(report, "Delay = first onset (debounce 2 included) − contact start; missed = no onset within the contact + 100 ms. Isolation at 50 % of θ, except the variant with absolute isolation levels (`CollisionDetector::set_isolation_levels`: {ISOLATION_PEAK_FACTOR} × each joint's peak \\|r_j\\| in the calibration run, at least {ISOLATION_FLOOR_NM} Nm; detection unchanged); \"over the contact\" is the episode isolation reported at release (most distal link named during the episode). Off-axis = the hit link's own joint sees ≥ {OFF_AXIS_NM} Nm of static \\|J_vᵀF\\| at the contact start (for 50 N: force line ≥ 2 cm from that axis); contacts closer to the axis are indistinguishable from one on the previous link.\n").unwrap();
     for (duration, tag) in [(0.02, "20 ms"), (0.01, "10 ms")] {
         let cs = campaign(
             args.seed + (duration * 1e3) as u64,

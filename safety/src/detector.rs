@@ -165,6 +165,7 @@ pub struct CollisionDetector<const N: usize> {
     events: u64,
     episode_link: usize,
     peak_residual: SVector<f64, N>,
+    isolation_levels: Option<SVector<f64, N>>,
 }
 
 impl<const N: usize> CollisionDetector<N> {
@@ -180,7 +181,37 @@ impl<const N: usize> CollisionDetector<N> {
             events: 0,
             episode_link: 0,
             peak_residual: SVector::zeros(),
+            isolation_levels: None,
         })
+    }
+
+    /// Sets absolute isolation levels \[Nm\] per joint, used instead of
+    /// `isolation_ratio`·θ_j once a contact has been detected: the isolated link is then the most
+    /// distal joint with |r_j| > level_j. Detection (thresholds, debounce, release) is unchanged.
+    ///
+    /// Why: a contact on link i puts no torque on joints distal to i, so any joint whose
+    /// residual clearly exceeds its own free-motion level proves the contact is on its link or
+    /// beyond. One level for all joints (a fraction of θ) is far above the wrist joints' noise
+    /// (≈ 0.1–0.3 Nm) while a 50 N push on the forearm or the tool gives them only a few Nm, so
+    /// the textbook rule then names a proximal link. Calibrate the levels as a multiple
+    /// (e.g. 2×) of the peak |r_j| of a recorded free-motion run with the final payload estimate.
+    /// `None` restores the ratio rule. Refuses non-finite or non-positive levels.
+    pub fn set_isolation_levels(
+        &mut self,
+        levels: Option<SVector<f64, N>>,
+    ) -> Result<(), ConfigError> {
+        if let Some(l) = &levels
+            && let Some(joint) = l.iter().position(|x| !(x.is_finite() && *x > 0.0))
+        {
+            return Err(ConfigError::IsolationLevel { joint });
+        }
+        self.isolation_levels = levels;
+        Ok(())
+    }
+
+    /// The absolute isolation levels \[Nm\], when set.
+    pub fn isolation_levels(&self) -> Option<&SVector<f64, N>> {
+        self.isolation_levels.as_ref()
     }
 
     /// The configuration in use.
@@ -221,11 +252,16 @@ impl<const N: usize> CollisionDetector<N> {
         (over, thresholds)
     }
 
-    /// Most distal joint with |r_j| > isolation_ratio·θ_j, 0-based.
+    /// Most distal joint with |r_j| over its isolation level (the absolute level when set,
+    /// else isolation_ratio·θ_j), 0-based.
     fn isolate(&self, residual: &SVector<f64, N>, thresholds: &SVector<f64, N>) -> Option<usize> {
-        (0..N)
-            .rev()
-            .find(|&j| residual[j].abs() > self.config.isolation_ratio * thresholds[j])
+        (0..N).rev().find(|&j| {
+            let level = match &self.isolation_levels {
+                Some(levels) => levels[j],
+                None => self.config.isolation_ratio * thresholds[j],
+            };
+            residual[j].abs() > level
+        })
     }
 
     /// Processes one updated residual `residual` \[Nm\] at velocity `qd` \[rad/s\], observer
@@ -347,6 +383,61 @@ mod tests {
         assert_eq!(episode_link, 2);
         assert_eq!(peak_residual, Vector3::new(7.0, 0.0, 2.5));
         assert_eq!(d.event_count(), 1);
+    }
+
+    #[test]
+    fn absolute_isolation_levels_name_the_distal_link_without_changing_detection() {
+        // Joint 2 carries 0.8 Nm: under the ratio rule (0.5 × 2 Nm) it is ignored and link 0 is
+        // named; with a 0.5 Nm level on joint 2 the contact is isolated on link 2.
+        let v0 = Vector3::zeros();
+        let hit = Vector3::new(7.0, 3.0, 0.8);
+        let mut ratio = detector(1, 1);
+        let Detection::Onset(e) = ratio.update(&hit, &v0, 1, 0.0) else {
+            panic!("no onset")
+        };
+        assert_eq!(e.isolated_link, 0);
+        let mut levels = detector(1, 1);
+        levels
+            .set_isolation_levels(Some(Vector3::new(1.0, 1.0, 0.5)))
+            .unwrap();
+        let Detection::Onset(e) = levels.update(&hit, &v0, 1, 0.0) else {
+            panic!("no onset")
+        };
+        assert_eq!(e.isolated_link, 2);
+        // Detection is unchanged: below every threshold there is no onset, however far the
+        // residual is above the isolation levels.
+        let mut quiet = detector(1, 1);
+        quiet
+            .set_isolation_levels(Some(Vector3::new(0.1, 0.1, 0.1)))
+            .unwrap();
+        assert_eq!(
+            quiet.update(&Vector3::new(5.9, 5.0, 1.9), &v0, 1, 0.0),
+            Detection::Clear
+        );
+        // The episode link follows the levels too.
+        let _ = levels.update(&Vector3::new(7.0, 0.4, 0.6), &v0, 2, 0.001);
+        let Detection::Released { episode_link, .. } =
+            levels.update(&Vector3::zeros(), &v0, 3, 0.002)
+        else {
+            panic!("no release")
+        };
+        assert_eq!(episode_link, 2);
+        assert!(
+            levels
+                .set_isolation_levels(Some(Vector3::new(1.0, 0.0, 1.0)))
+                .is_err()
+        );
+        assert!(
+            levels
+                .set_isolation_levels(Some(Vector3::new(1.0, f64::NAN, 1.0)))
+                .is_err()
+        );
+        assert_eq!(
+            levels.isolation_levels(),
+            Some(&Vector3::new(1.0, 1.0, 0.5))
+        );
+        levels.set_isolation_levels(None).unwrap();
+        assert!(levels.isolation_levels().is_none());
     }
 
     #[test]

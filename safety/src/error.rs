@@ -49,6 +49,12 @@ pub enum ConfigError {
         /// Joint index, 0-based.
         joint: usize,
     },
+    /// Absolute isolation level not finite or not positive.
+    #[error("isolation level on joint {joint} (0-based) must be finite and positive")]
+    IsolationLevel {
+        /// Joint index, 0-based.
+        joint: usize,
+    },
     /// Hysteresis ratio outside (0, 1] or zero debounce/release counts.
     #[error("release ratio must be in (0, 1] and debounce/release counts at least 1")]
     Hysteresis,

@@ -103,6 +103,15 @@ impl<const N: usize> CollisionMonitor<N> {
         &self.detector
     }
 
+    /// Sets absolute per-joint isolation levels \[Nm\] (see
+    /// [`CollisionDetector::set_isolation_levels`]); detection is unchanged.
+    pub fn set_isolation_levels(
+        &mut self,
+        levels: Option<SVector<f64, N>>,
+    ) -> Result<(), ConfigError> {
+        self.detector.set_isolation_levels(levels)
+    }
+
     /// Installs a payload estimate (see [`MomentumObserver::set_payload`]).
     pub fn set_payload(&mut self, payload: PayloadCompensation) -> Result<(), Fault> {
         self.observer.set_payload(payload)

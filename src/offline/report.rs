@@ -22,6 +22,25 @@ fn mm_std(v: f64) -> String {
     }
 }
 
+/// Two report lines: a CoM in mm after `label` (which carries its own column padding) and its
+/// 1σ below; NaN components (not identifiable) show as n/a.
+fn com_rows(s: &mut String, label: &str, com: &[f64; 3], std: &[f64; 3]) {
+    let _ = writeln!(
+        s,
+        "  {label} [mm]  x {}  y {}  z {}",
+        mm(com[0]),
+        mm(com[1]),
+        mm(com[2])
+    );
+    let _ = writeln!(
+        s,
+        "                             ± 1σ [mm]    {}    {}    {}",
+        mm_std(std[0]),
+        mm_std(std[1]),
+        mm_std(std[2])
+    );
+}
+
 /// Report of a static estimate.
 pub fn payload(e: &PayloadEstimate, last_frame: usize) -> String {
     let mut s = String::new();
@@ -44,33 +63,17 @@ pub fn payload(e: &PayloadEstimate, last_frame: usize) -> String {
         e.mass_std,
         100.0 * e.mass_std / e.mass
     );
-    let _ = writeln!(
-        s,
-        "  CoM, frame {last_frame} (last DH frame)   [mm]  x {}  y {}  z {}",
-        mm(e.com[0]),
-        mm(e.com[1]),
-        mm(e.com[2])
+    com_rows(
+        &mut s,
+        &format!("CoM, frame {last_frame} (last DH frame)  "),
+        &e.com,
+        &e.com_std,
     );
-    let _ = writeln!(
-        s,
-        "                             ± 1σ [mm]    {}    {}    {}",
-        mm_std(e.com_std[0]),
-        mm_std(e.com_std[1]),
-        mm_std(e.com_std[2])
-    );
-    let _ = writeln!(
-        s,
-        "  CoM, flange frame           [mm]  x {}  y {}  z {}",
-        mm(e.com_flange[0]),
-        mm(e.com_flange[1]),
-        mm(e.com_flange[2])
-    );
-    let _ = writeln!(
-        s,
-        "                             ± 1σ [mm]    {}    {}    {}",
-        mm_std(e.com_flange_std[0]),
-        mm_std(e.com_flange_std[1]),
-        mm_std(e.com_flange_std[2])
+    com_rows(
+        &mut s,
+        "CoM, flange frame          ",
+        &e.com_flange,
+        &e.com_flange_std,
     );
     let _ = writeln!(
         s,

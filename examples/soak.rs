@@ -76,6 +76,7 @@ fn main() -> anyhow::Result<()> {
                             around,
                             poses: Some(2),
                             step_deg: Some(2.0),
+                            pattern: None,
                         },
                         |_, _| {},
                     )

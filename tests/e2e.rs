@@ -148,6 +148,7 @@ async fn tare_then_estimate_through_the_socket_and_persist_after_restart() {
                 around: None,
                 poses: Some(6),
                 step_deg: Some(7.0),
+                pattern: None,
             },
             |ev, _| {
                 assert_eq!(ev, "progress");
@@ -171,6 +172,7 @@ async fn tare_then_estimate_through_the_socket_and_persist_after_restart() {
             around: None,
             poses: Some(6),
             step_deg: Some(7.0),
+            pattern: None,
             use_tare: None,
             apply: Some(true),
         },
@@ -232,7 +234,8 @@ async fn collision_during_a_workflow_stops_the_arm_and_aborts() {
             duration_s: 0.3,
         },
     }];
-    let driver = MockDriver::spawn(sim_config, h.fri, lockstep()).unwrap();
+    // Real time: the contact must come while the pattern runs, which lockstep cannot place.
+    let driver = MockDriver::spawn(sim_config, h.fri, Pacing::RealTime).unwrap();
     let mut c = h.client().await;
     wait_connected(&mut c).await;
     let mut watcher = h.client().await;
@@ -252,6 +255,7 @@ async fn collision_during_a_workflow_stops_the_arm_and_aborts() {
             around: None,
             poses: Some(6),
             step_deg: Some(7.0),
+            pattern: None,
         },
     )
     .await
@@ -270,6 +274,7 @@ async fn collision_during_a_workflow_stops_the_arm_and_aborts() {
             around: None,
             poses: Some(2),
             step_deg: Some(7.0),
+            pattern: None,
         },
     )
     .await
@@ -333,6 +338,7 @@ async fn loss_bursts_and_a_controller_restart_are_survived() {
             around: None,
             poses: Some(3),
             step_deg: Some(5.0),
+            pattern: None,
         },
     )
     .await

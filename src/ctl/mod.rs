@@ -172,6 +172,26 @@ pub struct PatternArgs {
     /// Pattern increment, degrees (default 7).
     #[arg(long)]
     pub step_deg: Option<f64>,
+    /// Pose pattern: the paper's ±step pattern or D-optimal poses in the same box.
+    #[arg(long, value_enum)]
+    pub pattern: Option<PatternArg>,
+}
+
+/// Pose patterns on the command line.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum PatternArg {
+    /// The paper's pattern.
+    Paper,
+    /// D-optimal poses.
+    Optimized,
+}
+
+fn pattern_kind(p: Option<PatternArg>) -> Option<crate::service::pattern::PatternKind> {
+    use crate::service::pattern::PatternKind;
+    p.map(|p| match p {
+        PatternArg::Paper => PatternKind::Paper,
+        PatternArg::Optimized => PatternKind::Optimized,
+    })
 }
 
 fn arr7(v: &Option<Vec<f64>>) -> Option<[f64; 7]> {
@@ -195,6 +215,7 @@ impl OperatorCommand {
                     around: arr7(&pattern.around),
                     poses: pattern.poses,
                     step_deg: pattern.step_deg,
+                    pattern: pattern_kind(pattern.pattern),
                 },
                 conn,
             ),
@@ -208,6 +229,7 @@ impl OperatorCommand {
                     around: arr7(&pattern.around),
                     poses: pattern.poses,
                     step_deg: pattern.step_deg,
+                    pattern: pattern_kind(pattern.pattern),
                     use_tare: *tare,
                     apply: Some(*apply),
                 },

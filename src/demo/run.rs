@@ -262,6 +262,7 @@ async fn phases(
                 around: None,
                 poses: Some(10),
                 step_deg: Some(7.0),
+                pattern: None,
             },
             |_, d| {
                 if d["phase"] == "sampled" {
@@ -294,6 +295,7 @@ async fn phases(
                 around: None,
                 poses: Some(10),
                 step_deg: Some(7.0),
+                pattern: None,
                 use_tare: None,
                 apply: Some(true),
             },

@@ -35,6 +35,9 @@ pub enum Command {
         /// Pattern increment, degrees (default from config, 7).
         #[serde(default)]
         step_deg: Option<f64>,
+        /// Pose pattern (default `paper`).
+        #[serde(default)]
+        pattern: Option<crate::service::pattern::PatternKind>,
     },
     /// Drive the pose pattern with the payload, estimate it and return it with uncertainties.
     EstimatePayload {
@@ -47,6 +50,9 @@ pub enum Command {
         /// Pattern increment, degrees (default from config, 7).
         #[serde(default)]
         step_deg: Option<f64>,
+        /// Pose pattern (default `paper`).
+        #[serde(default)]
+        pattern: Option<crate::service::pattern::PatternKind>,
         /// Subtract the stored tare (default: when one is stored for the same poses).
         #[serde(default)]
         use_tare: Option<bool>,
@@ -396,6 +402,7 @@ mod tests {
                 around: Some([0.1; 7]),
                 poses: Some(10),
                 step_deg: Some(7.0),
+                pattern: Some(crate::service::pattern::PatternKind::Optimized),
                 use_tare: None,
                 apply: Some(true),
             },

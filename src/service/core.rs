@@ -14,7 +14,7 @@ use tokio::sync::broadcast::error::RecvError;
 use tokio::time::Instant;
 
 use super::fanout::Shared;
-use super::pattern::paper_pattern;
+use super::pattern::{PatternKind, poses as pattern_poses};
 use super::rt::{RtEvent, RtRequest};
 use super::settle::{AveragedSample, Averager, SettleDetector};
 use crate::config::Config;
@@ -468,6 +468,7 @@ impl ServiceCore {
         around: Option<[f64; 7]>,
         poses: Option<usize>,
         step_deg: Option<f64>,
+        kind: PatternKind,
         phase: &str,
         events: &EventSink,
     ) -> Result<(Vec<AveragedSample>, [f64; 7]), OperatorError> {
@@ -486,7 +487,12 @@ impl ServiceCore {
         if around.iter().any(|x| !x.is_finite()) {
             return Err(err(ErrorCode::InvalidArguments, "`around` must be finite"));
         }
-        let pattern = paper_pattern(&around, count, step, self.model.limits());
+        let pattern = pattern_poses(kind, &self.model, &around, count, step).map_err(|e| {
+            err(
+                ErrorCode::InvalidArguments,
+                format!("pose design failed: {e}"),
+            )
+        })?;
         let mut baseline = Some(latest.residual);
         let mut samples = Vec::with_capacity(count);
         for (k, pose) in pattern.iter().enumerate() {
@@ -560,11 +566,12 @@ impl ServiceCore {
         around: Option<[f64; 7]>,
         poses: Option<usize>,
         step_deg: Option<f64>,
+        kind: PatternKind,
         events: &EventSink,
     ) -> Result<Value, OperatorError> {
         let _guard = self.busy()?;
         let (samples, around) = self
-            .run_pattern(around, poses, step_deg, "tare", events)
+            .run_pattern(around, poses, step_deg, kind, "tare", events)
             .await?;
         let tare = Tare {
             around,
@@ -579,11 +586,13 @@ impl ServiceCore {
     }
 
     /// `estimate-payload`.
+    #[allow(clippy::too_many_arguments)]
     pub async fn estimate_payload(
         &self,
         around: Option<[f64; 7]>,
         poses: Option<usize>,
         step_deg: Option<f64>,
+        kind: PatternKind,
         use_tare: Option<bool>,
         apply: bool,
         events: &EventSink,
@@ -591,7 +600,7 @@ impl ServiceCore {
         let _guard = self.busy()?;
         let tare = self.persistent(|s| s.tare.clone());
         let (samples, around) = self
-            .run_pattern(around, poses, step_deg, "estimate", events)
+            .run_pattern(around, poses, step_deg, kind, "estimate", events)
             .await?;
         events
             .send(

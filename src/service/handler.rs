@@ -23,11 +23,22 @@ impl Handler for ServiceHandler {
                 around,
                 poses,
                 step_deg,
-            } => s.tare(around, poses, step_deg, &events).await,
+                pattern,
+            } => {
+                s.tare(
+                    around,
+                    poses,
+                    step_deg,
+                    pattern.unwrap_or_default(),
+                    &events,
+                )
+                .await
+            }
             Command::EstimatePayload {
                 around,
                 poses,
                 step_deg,
+                pattern,
                 use_tare,
                 apply,
             } => {
@@ -35,6 +46,7 @@ impl Handler for ServiceHandler {
                     around,
                     poses,
                     step_deg,
+                    pattern.unwrap_or_default(),
                     use_tare,
                     apply.unwrap_or(false),
                     &events,

@@ -1,42 +1,63 @@
-//! The estimation pose pattern: the paper's "N samples with increments of ±7° per joint around
-//! the pick configuration" (Sec. VI-A).
+//! The estimation pose patterns, from the estimator's pose design (`estimator::poses`):
 //!
-//! The paper does not list its poses; we use a two-level design: pose k offsets every joint j by
-//! ±step with the sign of row (k mod 8) of the 8 × 8 Walsh–Hadamard matrix, column j + 1
-//! (−1 to the power popcount(k & (j+1))). Columns are orthogonal, so the orientation of the last
-//! link varies in independent directions and the 4 payload gravity parameters are well
-//! conditioned with as few as 5 poses. Poses 8..15 use half the step, 16.. a quarter, so no pose
-//! repeats. Every pose is clamped into the joint limits minus a margin.
+//! - `paper`: the paper's "N samples with increments of ±7° per joint around the pick
+//!   configuration" (Sec. VI-A), as the project defines it (lwr4-model.md §4, the golden Q10 set
+//!   for 7°): q_k = around + step·u_k with u_kj = 2·frac(k·√p_j) − 1, k = 1..N;
+//! - `optimized`: N poses inside the same ±step box chosen D-optimally (greedy + exchange) for
+//!   the payload gravity parameters, which reaches the paper pattern's accuracy with fewer poses.
+//!
+//! Both are deterministic for the same inputs, so a tare and a later estimate visit the same
+//! poses. Every pose is clamped inside the joint limits.
 
-use dynamics::JointLimits;
+use dynamics::Model;
+use estimator::poses::{Criterion, Nominal, optimize, paper_pattern};
+use nalgebra::SVector;
+use serde::{Deserialize, Serialize};
 
-/// Margin kept from the joint position limits, rad (5°).
-pub const LIMIT_MARGIN: f64 = 0.087_266_462_599_716_48;
+/// Which pose pattern a workflow drives.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PatternKind {
+    /// The paper's ±step pattern.
+    #[default]
+    Paper,
+    /// D-optimal poses in the same box.
+    Optimized,
+}
 
-/// `count` poses around `around` (rad) with increments `step_deg` (degrees).
-pub fn paper_pattern(
+/// Candidates screened by the optimiser.
+const CANDIDATES: usize = 256;
+
+/// `count` poses around `around` (rad) within ±`step_deg` degrees.
+pub fn poses(
+    kind: PatternKind,
+    model: &Model<7>,
     around: &[f64; 7],
     count: usize,
     step_deg: f64,
-    limits: &JointLimits<7>,
-) -> Vec<[f64; 7]> {
-    let step = step_deg.to_radians();
-    (0..count)
-        .map(|k| {
-            let row = (k % 8) as u32;
-            let scale = 0.5f64.powi((k / 8) as i32);
-            std::array::from_fn(|j| {
-                let sign = if (row & (j as u32 + 1)).count_ones().is_multiple_of(2) {
-                    1.0
-                } else {
-                    -1.0
-                };
-                let lo = limits.position_min[j] + LIMIT_MARGIN;
-                let hi = limits.position_max[j] - LIMIT_MARGIN;
-                (around[j] + sign * step * scale).clamp(lo.min(hi), hi.max(lo))
-            })
+) -> Result<Vec<[f64; 7]>, estimator::EstimatorError> {
+    let center = SVector::<f64, 7>::from(*around);
+    let spread = step_deg.to_radians();
+    let qs = match kind {
+        PatternKind::Paper => paper_pattern(model, &center, spread, count),
+        PatternKind::Optimized => optimize(
+            model,
+            &center,
+            spread,
+            count,
+            Criterion::D,
+            CANDIDATES,
+            &Nominal::default(),
+        )?,
+    };
+    Ok(qs
+        .iter()
+        .map(|q| {
+            let mut a = [0.0; 7];
+            a.copy_from_slice(q.as_slice());
+            a
         })
-        .collect()
+        .collect())
 }
 
 #[cfg(test)]
@@ -44,33 +65,45 @@ mod tests {
     use super::*;
 
     #[test]
-    fn ten_distinct_poses_at_plus_minus_seven_degrees() {
+    fn paper_pattern_stays_within_the_step_and_is_deterministic() {
+        let model = dynamics::lwr4();
         let around = [0.0, 0.5, 0.0, -1.2, 0.0, 0.8, 0.0];
-        let poses = paper_pattern(&around, 10, 7.0, dynamics::lwr4().limits());
-        assert_eq!(poses.len(), 10);
+        let a = poses(PatternKind::Paper, &model, &around, 10, 7.0).unwrap();
+        let b = poses(PatternKind::Paper, &model, &around, 10, 7.0).unwrap();
+        assert_eq!(a, b);
+        assert_eq!(a.len(), 10);
         let step = 7f64.to_radians();
-        for (k, p) in poses.iter().enumerate() {
+        for p in &a {
             for j in 0..7 {
-                let d = (p[j] - around[j]).abs();
-                let expect = if k < 8 { step } else { step / 2.0 };
-                assert!((d - expect).abs() < 1e-12, "pose {k} joint {j}: {d}");
-            }
-            for other in &poses[..k] {
-                assert_ne!(p, other, "pose {k} repeats");
+                assert!((p[j] - around[j]).abs() < step + 1e-12);
             }
         }
-        // Pose 0 is all +7°, pose 1 alternates starting with −7° on joint 1.
-        assert!(poses[0].iter().zip(&around).all(|(p, a)| p > a));
-        assert!(poses[1][0] < around[0] && poses[1][1] > around[1]);
+        for (k, p) in a.iter().enumerate() {
+            for other in &a[..k] {
+                assert_ne!(p, other);
+            }
+        }
     }
 
     #[test]
-    fn poses_stay_inside_the_limits() {
-        let limits = *dynamics::lwr4().limits();
-        let mut around = [0.0; 7];
-        around[1] = limits.position_max[1]; // at the limit
-        for p in paper_pattern(&around, 10, 7.0, &limits) {
-            assert!(p[1] <= limits.position_max[1] - LIMIT_MARGIN + 1e-12);
-        }
+    fn optimized_pattern_has_more_information_than_the_paper_pattern() {
+        // D-optimality: det(Σ YᵀY) of the payload gravity regressor (eq. 40) is larger.
+        let model = dynamics::lwr4();
+        let mut data = dynamics::Data::new(&model);
+        let around = [0.0, 0.5, 0.0, -1.2, 0.0, 0.8, 0.0];
+        let mut det = |kind| {
+            let info: nalgebra::Matrix4<f64> = poses(kind, &model, &around, 6, 7.0)
+                .unwrap()
+                .iter()
+                .map(|q| {
+                    let y =
+                        dynamics::payload_gravity_regressor(&model, &mut data, &SVector::from(*q));
+                    y.transpose() * y
+                })
+                .sum();
+            info.determinant()
+        };
+        let (opt, paper) = (det(PatternKind::Optimized), det(PatternKind::Paper));
+        assert!(opt > paper, "optimized {opt} vs paper {paper}");
     }
 }

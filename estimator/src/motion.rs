@@ -13,9 +13,10 @@ use std::io::Read;
 use dynamics::{
     Data, InertialParameters, Model, payload_gravity_regressor, payload_regressor, rnea,
 };
-use nalgebra::{DMatrix, DVector, Matrix3, SMatrix, SVector, Vector3};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use serde::{Deserialize, Serialize};
 
+use crate::equations;
 use crate::error::EstimatorError;
 use crate::filter::{Butterworth, derivative};
 use crate::lsq;
@@ -344,19 +345,9 @@ pub fn estimate_motion<const N: usize>(
         rows_y.push(y);
         rows_b.push(s.delta_tau());
     }
-    let scale = rows_y.iter().map(|y| y.amax()).fold(0.0, f64::max);
-    let joints: Vec<usize> = (0..N)
-        .filter(|&j| rows_y.iter().any(|y| y.row(j).amax() > 1e-9 * scale))
-        .collect();
+    let joints = equations::used_joints(&rows_y);
     let nrows = rows_y.len() * joints.len();
-    let mut a = DMatrix::zeros(nrows, 10);
-    let mut b = DVector::zeros(nrows);
-    for (k, (y, d)) in rows_y.iter().zip(&rows_b).enumerate() {
-        for (i, &j) in joints.iter().enumerate() {
-            a.row_mut(k * joints.len() + i).copy_from(&y.row(j));
-            b[k * joints.len() + i] = d[j];
-        }
-    }
+    let (mut a, b) = equations::stack(&rows_y, &rows_b, &joints, 10);
     // scale columns to unit norm so the condition number measures collinearity, not units
     let norms: Vec<f64> = (0..10).map(|c| a.column(c).norm()).collect();
     if let Some(c) = norms.iter().position(|n| n.is_nan() || *n <= 0.0) {

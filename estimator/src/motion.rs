@@ -333,8 +333,21 @@ pub fn estimate_motion<const N: usize>(
                 }
                 (None, Unloaded::Tare(_)) => continue,
             };
-            rows_y.push(payload_regressor(model, &mut data, &s.q, &s.qd, &s.qdd));
-            rows_b.push(s.tau - tau_u);
+            let y = payload_regressor(model, &mut data, &s.q, &s.qd, &s.qdd);
+            let d = s.tau - tau_u;
+            // finite logs of absurd size (positions not in rad) overflow in q̇² and the like;
+            // name that here instead of failing later as a rank-deficient fit
+            if y.iter().chain(d.iter()).any(|v| !v.is_finite()) {
+                return Err(EstimatorError::NotFinite {
+                    sample: k + 1,
+                    column: format!(
+                        "trajectory {}: regressor or torque derived from q, q̇, q̈ of this kept sample (overflow: are the positions in rad?)",
+                        i + 1
+                    ),
+                });
+            }
+            rows_y.push(y);
+            rows_b.push(d);
         }
     }
     let motion_samples = rows_y.len();

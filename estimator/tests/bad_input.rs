@@ -90,3 +90,32 @@ fn out_of_range_trim_is_an_invalid_setting() {
     };
     assert_eq!(process(&tr, &options).unwrap().len(), 2000 - 2 * 100);
 }
+
+#[test]
+fn overflowing_trajectory_derivatives_are_named_as_such() {
+    use estimator::motion::{Unloaded, estimate_motion};
+    let model = dynamics::lwr4();
+    let rows = 3000;
+    let t: Vec<f64> = (0..rows).map(|k| k as f64 * 0.01).collect();
+    let tr = Trajectory::<7> {
+        q: t.iter()
+            .map(|t| SVector::from_element(1e200 * (0.3 * t).sin()))
+            .collect(),
+        tau: t.iter().map(|_| SVector::from_element(1.0)).collect(),
+        t,
+    };
+    let result = estimate_motion(
+        &model,
+        std::slice::from_ref(&tr),
+        Unloaded::Model(&model),
+        &[],
+        &MotionOptions::default(),
+    );
+    // used to end in "poses too similar" (RankDeficient), which named the wrong cause
+    match result {
+        Err(EstimatorError::NotFinite { column, .. }) => {
+            assert!(column.contains("overflow"), "{column}")
+        }
+        other => panic!("expected NotFinite, got {other:?}"),
+    }
+}

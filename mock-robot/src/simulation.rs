@@ -433,6 +433,15 @@ impl Simulation {
         self.faults.counters()
     }
 
+    /// Attaches (or detaches) the configured payload now, as an operator does between a tare and
+    /// an estimation: time, sensor drift and noise streams carry on, so a tare taken before and an
+    /// estimate taken after see independent noise. Returns whether a payload is now attached
+    /// (never, when the configured mass is zero).
+    pub fn set_payload_attached(&mut self, attached: bool) -> bool {
+        self.payload_attached = attached && self.payload.mass > 0.0;
+        self.payload_attached
+    }
+
     /// True payload (frame 7) when attached.
     pub fn true_payload(&self) -> Option<&InertialParameters> {
         self.payload_attached.then_some(&self.payload)
@@ -857,8 +866,47 @@ mod tests {
         let mut sim = Simulation::new(config).unwrap();
         sim.step_cycle(None);
         assert!(sim.true_payload().is_none());
-        let g = dynamics::compute_generalized_gravity(&dynamics::lwr4(), &mut Data::new(sim.true_model()), sim.q());
+        let g = dynamics::compute_generalized_gravity(
+            &dynamics::lwr4(),
+            &mut Data::new(sim.true_model()),
+            sim.q(),
+        );
         assert!((sim.true_joint_torques() - g).amax() < 0.05);
+    }
+
+    #[test]
+    fn payload_attached_mid_run_loads_the_arm_and_keeps_time() {
+        let mut config = SimulationConfig {
+            sensors: crate::config::SensorSpec::ideal(),
+            ..Default::default()
+        };
+        config.payload.attached_at_start = false;
+        let mut sim = Simulation::new(config).unwrap();
+        for _ in 0..200 {
+            sim.step_cycle(None);
+        }
+        assert!(sim.true_payload().is_none());
+        let time_before = sim.time_s();
+        assert!(sim.set_payload_attached(true));
+        for _ in 0..1500 {
+            sim.step_cycle(None);
+        }
+        assert!(sim.time_s() > time_before);
+        let payload = *sim.true_payload().unwrap();
+        let mut data = Data::new(sim.true_model());
+        let loaded_gravity = dynamics::compute_generalized_gravity(
+            &dynamics::lwr4().with_payload(&payload),
+            &mut data,
+            sim.q(),
+        );
+        assert!(
+            (sim.true_joint_torques() - loaded_gravity).amax() < 0.05,
+            "torques {} vs loaded gravity {}",
+            sim.true_joint_torques(),
+            loaded_gravity
+        );
+        assert!(!sim.set_payload_attached(false));
+        assert!(sim.true_payload().is_none());
     }
 
     #[test]

@@ -224,11 +224,11 @@ async fn collision_during_a_workflow_stops_the_arm_and_aborts() {
     config.reaction.policy = fri_service::config::ReactionPolicy::Stop;
     let h = Harness::start(config, dir).await;
     let mut sim_config = sim(false, 3);
-    // A push on link 4 while the pattern is running (it starts ≈ 0.2 s into the run).
+    // A push on link 4 while the pattern is running (it starts ≈ 0.2 s into the run and lasts ≥ 4 s).
     sim_config.contacts = vec![mock_robot::contact::ContactSpec {
         link: 4,
         point_m: [0.0, 0.0, 0.0],
-        onset_s: 1.2,
+        onset_s: 2.5,
         profile: mock_robot::contact::ContactProfile::HalfSine {
             peak_force_n: [0.0, 80.0, 0.0],
             duration_s: 0.3,
@@ -291,7 +291,7 @@ async fn collision_during_a_workflow_stops_the_arm_and_aborts() {
             .find(|(e, _)| e == "collision")
             .expect("collision event");
         let t = collision.1["time_s"].as_f64().unwrap();
-        assert!(t > 1.2 && t < 1.4, "detected at {t}");
+        assert!(t > 2.5 && t < 2.7, "detected at {t}");
         assert!(
             evs.iter()
                 .any(|(e, d)| e == "stopped" && d["reason"] == "collision")

@@ -161,10 +161,11 @@ async fn tare_then_estimate_through_the_socket_and_persist_after_restart() {
     assert_eq!(tare["samples"], 6);
     assert!(progress >= 18, "progress events: {progress}");
     eprintln!("tare: {} cycles, {:?}", driver.cycles(), driver.stats());
-    drop(driver.stop());
-
-    // Payload attached (a new controller run, same seed: same sensor offsets and model error).
-    let driver = MockDriver::spawn(sim(true, 7), h.fri, lockstep()).unwrap();
+    // Payload attached to the same simulated robot: its model error, offsets and drift carry
+    // on, and the estimate's noise is independent of the tare's.
+    let mut robot = driver.stop().unwrap();
+    robot.set_payload_attached(true);
+    let driver = MockDriver::resume(robot, h.fri, lockstep()).unwrap();
     tokio::time::sleep(Duration::from_millis(300)).await;
     let est = call(
         &mut c,

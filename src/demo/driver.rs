@@ -68,7 +68,12 @@ impl MockDriver {
         service: SocketAddr,
         pacing: Pacing,
     ) -> Result<Self, SimError> {
-        let sim = Simulation::new(config)?;
+        Self::resume(Simulation::new(config)?, service, pacing)
+    }
+
+    /// Carries on with an existing simulation (e.g. one returned by [`MockDriver::stop`] whose
+    /// payload was attached since): time, sensor drift and noise continue where they stopped.
+    pub fn resume(sim: Simulation, service: SocketAddr, pacing: Pacing) -> Result<Self, SimError> {
         let socket = UdpSocket::bind("127.0.0.1:0").map_err(SimError::from)?;
         let local = socket.local_addr().map_err(SimError::from)?;
         let stop = Arc::new(AtomicBool::new(false));

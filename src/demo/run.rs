@@ -275,7 +275,6 @@ async fn phases(
         )
         .await?
         .map_err(|e| anyhow::anyhow!("tare failed: {}", e.message))?;
-    drop(driver.stop());
     say(
         opts,
         format!("      tare stored: {} samples", tare["samples"]),
@@ -287,7 +286,12 @@ async fn phases(
         format!("[2/4] payload attached ({PAYLOAD_MASS} kg at (0, 0, 0.119) m); estimating ..."),
     );
     let before = current_cycle(&mut client).await?;
-    let driver = MockDriver::spawn(sim(opts.seed, true), fri, opts.pacing)?;
+    // The same robot carries on: the tare's noise, drift and estimate are independent draws.
+    let mut robot = driver
+        .stop()
+        .context("the simulated controller of the tare phase failed")?;
+    robot.set_payload_attached(true);
+    let driver = MockDriver::resume(robot, fri, opts.pacing)?;
     wait_fresh_state(&mut client, before).await?;
     let est = client
         .call(

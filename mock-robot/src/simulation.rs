@@ -13,7 +13,7 @@
 use dynamics::{Data, InertialParameters, Model};
 use fri::wire::{
     CMD_LEN, Command, ControlStrategy, Header, InterfaceInfo, InterfaceState, InterfaceStatistics,
-    KrlData, Measurement, Quality as WireQuality, RobotData, RobotStatus,
+    KrlData, Measurement, Quality as WireQuality, RobotStatus,
 };
 use nalgebra::{Isometry3, SMatrix, Vector3};
 
@@ -241,8 +241,6 @@ impl Simulation {
             counters: ReceiveCounters::default(),
             end_s,
             measurement: Measurement {
-                header: Header::default(),
-                krl: KrlData::default(),
                 interface: InterfaceInfo {
                     timestamp: 0.0,
                     state: InterfaceState::Monitor,
@@ -265,20 +263,7 @@ impl Simulation {
                     warning: 0,
                     temperature: [REPORTED_TEMPERATURE_C; JOINTS],
                 },
-                data: RobotData {
-                    msr_jnt_pos: [0.0; JOINTS],
-                    msr_cart_pos: [[0.0; 4]; 3],
-                    cmd_jnt_pos: [0.0; JOINTS],
-                    cmd_jnt_pos_fri_offset: [0.0; JOINTS],
-                    cmd_cart_pos: [[0.0; 4]; 3],
-                    cmd_cart_pos_fri_offset: [[0.0; 4]; 3],
-                    msr_jnt_trq: [0.0; JOINTS],
-                    est_ext_jnt_trq: [0.0; JOINTS],
-                    est_ext_tcp_ft: [0.0; 6],
-                    jacobian: [[0.0; JOINTS]; 6],
-                    mass_matrix: [[0.0; JOINTS]; JOINTS],
-                    gravity: [0.0; JOINTS],
-                },
+                ..Measurement::default()
             },
             config,
         };

@@ -115,7 +115,7 @@ impl Default for RobotConfig {
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct ObserverConfig {
-    /// Observer gains K_I per joint, 1/s (default 25 on every joint).
+    /// Observer gains K_I per joint, 1/s (default `safety::DEFAULT_GAIN` = 400 on every joint).
     pub gains: [f64; JOINTS],
     /// Detection thresholds per joint, Nm (default 6, as in the paper's Fig. 6).
     pub thresholds: [f64; JOINTS],
@@ -126,7 +126,7 @@ pub struct ObserverConfig {
 impl Default for ObserverConfig {
     fn default() -> Self {
         Self {
-            gains: [25.0; JOINTS],
+            gains: [safety::DEFAULT_GAIN; JOINTS],
             thresholds: [6.0; JOINTS],
             armed: true,
         }

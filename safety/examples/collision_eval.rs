@@ -47,7 +47,8 @@ use support::*;
 
 const T: f64 = 1e-3;
 const THRESHOLD: f64 = 6.0;
-const GAIN: f64 = 100.0;
+/// Observer gain of the default setting, 1/s.
+const GAIN: f64 = safety::DEFAULT_GAIN;
 /// Isolation level per joint = this × the joint's peak |r_j| in a free-motion calibration run.
 const ISOLATION_PEAK_FACTOR: f64 = 2.0;
 /// Smallest isolation level, Nm.
@@ -61,6 +62,8 @@ struct Args {
     hours: f64,
     contacts: usize,
     seed: u64,
+    /// Run only the tuning sweep (free motion, delay campaigns, Fig. 6 detection per candidate).
+    sweep: bool,
 }
 
 fn parse_args() -> Args {
@@ -69,9 +72,14 @@ fn parse_args() -> Args {
         hours: 1.0,
         contacts: 200,
         seed: 2017,
+        sweep: false,
     };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
+        if flag == "--sweep" {
+            args.sweep = true;
+            continue;
+        }
         let value = it
             .next()
             .unwrap_or_else(|| panic!("missing value for {flag}"));
@@ -346,7 +354,10 @@ struct Variant {
 impl Variant {
     fn default_with_gain(gain: f64) -> Self {
         Self {
-            label: format!("K = {gain}, θ = 6 Nm"),
+            label: format!(
+                "K = {gain}, θ = 6 Nm, debounce {}",
+                DetectorConfig::<7>::default().debounce_samples
+            ),
             gain,
             filter: VelocityFilter::default(),
             detector: DetectorConfig::default(),
@@ -381,7 +392,7 @@ impl Variant {
     }
 }
 
-/// K_I = 100 1/s, exact ZOH, g(q) from the controller's packet (`data.gravity`, no payload).
+/// K_I = `GAIN` (the default), exact ZOH, g(q) from the controller's packet (`data.gravity`, no payload).
 fn observer_config() -> ObserverConfig<7> {
     let mut config = ObserverConfig::new(T, GAIN);
     config.gravity_source = GravitySource::Controller;
@@ -628,7 +639,7 @@ fn fig6(seed: u64, report: &mut String) -> Fig6 {
     writeln!(report, "### Fig. 6 reproduction (seed {seed}, {duration:.0} s, contacts 50 N / 200 ms half-sine at 1 s link 4, 8 s link 6, 17 s link 7)\n").unwrap();
     let e = world.estimate();
     writeln!(report, "Payload estimate of this run (10 static poses around pick, estimator::estimate_direct, Δτ = msrJntTrq − controller gravity): m = {:.3} kg (true 3.028), CoM = ({:.1}, {:.1}, {:.1}) mm (true (0, 0, 119)), condition number {:.0}.\n", e.mass, e.com[0] * 1e3, e.com[1] * 1e3, e.com[2] * 1e3, e.condition_number).unwrap();
-    writeln!(report, "Peak joint speed in free motion: {peak_speed:.2} rad/s. Threshold 6 Nm, debounce 2, release at 80 % for 20 samples. Free motion = outside [t0, t0 + 1.2 s] of each contact; a re-trigger is an onset in (t0 + 0.3 s, t0 + 1.2 s], i.e. while the arm rebounds from the push (no reaction is executed in this simulation).\n").unwrap();
+    writeln!(report, "Peak joint speed in free motion: {peak_speed:.2} rad/s. Threshold 6 Nm, default detector (debounce {}), release at 80 % for 20 samples. Free motion = outside [t0, t0 + 1.2 s] of each contact; a re-trigger is an onset in (t0 + 0.3 s, t0 + 1.2 s], i.e. while the arm rebounds from the push (no reaction is executed in this simulation).\n", det_cfg.debounce_samples).unwrap();
     writeln!(report, "| signal | peak \\|s\\| free motion [Nm] | free-motion time > 6 Nm | contacts detected (onset within 0.3 s) | re-triggers after a contact | false alarms in free motion |").unwrap();
     writeln!(report, "|---|---|---|---|---|---|").unwrap();
     for i in 0..4 {
@@ -1286,11 +1297,11 @@ fn summarise_campaign(name: &str, campaigns: &[Campaign], per_link: bool, report
 /// File-name tag of a variant label.
 fn variant_tag(label: &str) -> String {
     if label.contains("point mass") {
-        "K100_point_mass_isolation_levels".to_string()
+        format!("K{GAIN}_point_mass_isolation_levels")
     } else if label.contains("isolation levels") {
-        "K100_isolation_levels".to_string()
+        format!("K{GAIN}_isolation_levels")
     } else if label.contains("θ = (") {
-        "K100_tuned".to_string()
+        format!("K{GAIN}_tuned")
     } else if label.contains("backward") {
         "K500_bd_debounce1".to_string()
     } else {
@@ -1300,6 +1311,11 @@ fn variant_tag(label: &str) -> String {
             .unwrap_or("")
             .replace("K = ", "K")
             .replace(' ', "")
+            + if label.contains("debounce 2") {
+                "_debounce2"
+            } else {
+                ""
+            }
     }
 }
 
@@ -1525,9 +1541,196 @@ fn neglected_inertia(seed: u64, report: &mut String) {
     writeln!(report).unwrap();
 }
 
+/// A candidate setting for the delay targets: gain K \[1/s\], velocity filter, debounce count
+/// (θ = 6 Nm and everything else at the detector defaults).
+fn candidate(gain: f64, filter: VelocityFilter, debounce: u32) -> Variant {
+    let filter_label = match filter {
+        VelocityFilter::BackwardDifference => "backward difference".to_string(),
+        VelocityFilter::FirstOrder { cutoff_hz } => format!("first order {cutoff_hz} Hz"),
+        VelocityFilter::SecondOrder { cutoff_hz } => format!("second order {cutoff_hz} Hz"),
+    };
+    Variant {
+        label: format!("K = {gain}, {filter_label}, debounce {debounce}"),
+        gain,
+        filter,
+        detector: DetectorConfig {
+            debounce_samples: debounce,
+            ..DetectorConfig::default()
+        },
+        isolation_levels: None,
+        point_mass_dynamics: false,
+    }
+}
+
+/// Fig. 6 experiment (same world, trajectory and contacts as [`fig6`]) with every variant's
+/// compensated observer and detector: contacts detected (onset within 0.3 s), re-triggers and
+/// false alarms in free motion, peak free-motion |r|.
+fn fig6_detection(seed: u64, variants: &[Variant], report: &mut String) {
+    let mut rng = StdRng::seed_from_u64(seed ^ 0xF16);
+    let q0 = V7::from_column_slice(&[0.0, 0.6, 0.0, -1.2, 0.0, 0.8, 0.0]);
+    let mut waypoints = vec![q0];
+    waypoints.extend(random_waypoints(&mut rng, 8));
+    let trajectory = Quintic::new(&waypoints, 0.8, 0.5, 0.3);
+    let nominal = lwr4();
+    let duration = 20.0_f64.min(trajectory.duration());
+    let contact_spec = [(1.0, 3usize), (8.0, 5), (17.0, 6)];
+    let mut contacts = Vec::new();
+    for &(t0, link) in &contact_spec {
+        let (point, direction) = random_contact_geometry(&mut rng, link);
+        let (q_at, _, _) = trajectory.sample(t0);
+        let force = to_base(&nominal, &q_at, link, &direction) * 50.0;
+        contacts.push(Contact {
+            link,
+            point,
+            force,
+            profile: Profile::HalfSine {
+                start: t0,
+                duration: 0.2,
+            },
+        });
+    }
+    let mut world = World::new(seed, &q0, &contacts);
+    let mut observers: Vec<MomentumObserver<7>> =
+        variants.iter().map(|v| v.observer(&world)).collect();
+    let mut detectors: Vec<CollisionDetector<7>> = variants.iter().map(Variant::detector).collect();
+    let mut onsets: Vec<Vec<f64>> = vec![Vec::new(); variants.len()];
+    let mut peak_free = vec![0.0_f64; variants.len()];
+    for k in 0..(duration / T) as usize {
+        let t = k as f64 * T;
+        let (input, _) = world.measure();
+        let free = contact_spec
+            .iter()
+            .all(|&(t0, _)| t < t0 || t > t0 + 0.2 + 1.0)
+            && t > 0.05;
+        for (i, (obs, det)) in observers.iter_mut().zip(detectors.iter_mut()).enumerate() {
+            let out = obs.step(&input);
+            if free {
+                peak_free[i] = peak_free[i].max(out.residual.amax());
+            }
+            if k > 0
+                && let Detection::Onset(_) = det.update(&out.residual, &out.velocity, k as u64, t)
+            {
+                onsets[i].push(t);
+            }
+        }
+        world.advance(&trajectory);
+    }
+    writeln!(
+        report,
+        "#### Fig. 6 detection per candidate (seed {seed}, estimated payload, eq. 48)\n"
+    )
+    .unwrap();
+    writeln!(report, "| variant | peak \\|r\\| free motion [Nm] | contacts detected | re-triggers | false alarms |\n|---|---|---|---|---|").unwrap();
+    for (i, v) in variants.iter().enumerate() {
+        let detected = contact_spec
+            .iter()
+            .filter(|&&(t0, _)| onsets[i].iter().any(|&t| t >= t0 && t <= t0 + 0.3))
+            .count();
+        let retriggers = onsets[i]
+            .iter()
+            .filter(|&&t| {
+                contact_spec
+                    .iter()
+                    .any(|&(t0, _)| t > t0 + 0.3 && t <= t0 + 1.2)
+            })
+            .count();
+        let false_alarms = onsets[i]
+            .iter()
+            .filter(|&&t| contact_spec.iter().all(|&(t0, _)| t < t0 || t > t0 + 1.2))
+            .count();
+        writeln!(
+            report,
+            "| {} | {:.2} | {detected}/3 | {retriggers} | {false_alarms} |",
+            v.label, peak_free[i]
+        )
+        .unwrap();
+    }
+    writeln!(report).unwrap();
+}
+
+/// Tuning sweep for the delay targets: every candidate on the full free-motion campaign
+/// (`hours`), the 20 ms and 10 ms 50 N campaigns on links 4–7 and the Fig. 6 experiment.
+fn sweep(args: &Args) {
+    let started = std::time::Instant::now();
+    let first = |hz: f64| VelocityFilter::FirstOrder { cutoff_hz: hz };
+    let variants = vec![
+        candidate(100.0, first(200.0), 2),
+        candidate(400.0, first(200.0), 1),
+        candidate(500.0, first(200.0), 1),
+        candidate(600.0, first(200.0), 1),
+        candidate(500.0, first(300.0), 1),
+        candidate(500.0, first(400.0), 2),
+        candidate(700.0, first(200.0), 2),
+    ];
+    let mut report = String::new();
+    writeln!(
+        report,
+        "## collision_eval --sweep (seed {}, θ = 6 Nm, exact ZOH)\n",
+        args.seed
+    )
+    .unwrap();
+    fig6_detection(args.seed, &variants, &mut report);
+    eprintln!("fig6 done after {:.0} s", started.elapsed().as_secs_f64());
+    let free_runs = free_motion(args.seed, args.hours, &variants);
+    writeln!(
+        report,
+        "#### Randomised free motion ({:.2} h)\n",
+        free_runs[0].hours
+    )
+    .unwrap();
+    writeln!(report, "| variant | false alarms | false alarms / h | peak \\|r\\| per joint [Nm] |\n|---|---|---|---|").unwrap();
+    for f in &free_runs {
+        writeln!(
+            report,
+            "| {} | {} | {:.2} | {} |",
+            f.label,
+            f.onsets_at_default,
+            f.onsets_at_default as f64 / f.hours,
+            f.peak_per_joint
+                .iter()
+                .map(|x| format!("{x:.2}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+        .unwrap();
+    }
+    writeln!(report).unwrap();
+    eprintln!(
+        "free motion done after {:.0} s",
+        started.elapsed().as_secs_f64()
+    );
+    for (duration, tag) in [(0.02, "20 ms"), (0.01, "10 ms")] {
+        let cs = campaign(
+            args.seed + (duration * 1e3) as u64,
+            args.contacts,
+            &[3, 4, 5, 6],
+            ForceSpec::Fixed(50.0),
+            duration,
+            &variants,
+        );
+        summarise_campaign(&format!("50 N, {tag} half-sine"), &cs, false, &mut report);
+        eprintln!(
+            "campaign {tag} done after {:.0} s",
+            started.elapsed().as_secs_f64()
+        );
+    }
+    writeln!(
+        report,
+        "Wall time {:.0} s.",
+        started.elapsed().as_secs_f64()
+    )
+    .unwrap();
+    std::fs::write(args.out.join("sweep.md"), &report).unwrap();
+    print!("{report}");
+}
+
 fn main() {
     let args = parse_args();
     std::fs::create_dir_all(&args.out).unwrap();
+    if args.sweep {
+        sweep(&args);
+        return;
+    }
     let started = std::time::Instant::now();
     let mut report = String::new();
     writeln!(
@@ -1627,8 +1830,8 @@ fn main() {
     };
     let variants = vec![
         Variant::default_with_gain(GAIN),
-        Variant::default_with_gain(250.0),
-        Variant::default_with_gain(500.0),
+        candidate(100.0, VelocityFilter::default(), 2),
+        candidate(500.0, VelocityFilter::default(), 1),
         Variant {
             label: "K = 500, θ = 6 Nm, backward difference, debounce 1".to_string(),
             gain: 500.0,
@@ -1684,7 +1887,7 @@ fn main() {
     );
 
     writeln!(report, "### Detection delay, missed detections, isolation (50 N half-sine contacts on links 4–7 during motion)\n").unwrap();
-    writeln!(report, "Delay = first onset (debounce 2 included) − contact start; missed = no onset within the contact + 100 ms. Isolation at 50 % of θ, except the variant with absolute isolation levels (`CollisionDetector::set_isolation_levels`: {ISOLATION_PEAK_FACTOR} × each joint's peak \\|r_j\\| in the calibration run, at least {ISOLATION_FLOOR_NM} Nm; detection unchanged); \"over the contact\" is the episode isolation reported at release (most distal link named during the episode). Off-axis = the hit link's own joint sees ≥ {OFF_AXIS_NM} Nm of static \\|J_vᵀF\\| at the contact start (for 50 N: force line ≥ 2 cm from that axis); contacts closer to the axis are indistinguishable from one on the previous link.\n").unwrap();
+    writeln!(report, "Delay = first onset (debounce included) − contact start; missed = no onset within the contact + 100 ms. Isolation at 50 % of θ, except the variant with absolute isolation levels (`CollisionDetector::set_isolation_levels`: {ISOLATION_PEAK_FACTOR} × each joint's peak \\|r_j\\| in the calibration run, at least {ISOLATION_FLOOR_NM} Nm; detection unchanged); \"over the contact\" is the episode isolation reported at release (most distal link named during the episode). Off-axis = the hit link's own joint sees ≥ {OFF_AXIS_NM} Nm of static \\|J_vᵀF\\| at the contact start (for 50 N: force line ≥ 2 cm from that axis); contacts closer to the axis are indistinguishable from one on the previous link.\n").unwrap();
     for (duration, tag) in [(0.02, "20 ms"), (0.01, "10 ms")] {
         let cs = campaign(
             args.seed + (duration * 1e3) as u64,

@@ -69,14 +69,15 @@ pub struct DetectorConfig<const N: usize> {
 }
 
 impl<const N: usize> Default for DetectorConfig<N> {
-    /// 6 Nm static thresholds, release at 80 % of θ, debounce 2 samples, release after 20,
+    /// 6 Nm static thresholds, release at 80 % of θ, debounce 1 sample (the onset is the first
+    /// sample over θ; the observer's low-pass already smooths the residual), release after 20,
     /// isolation at 50 % of θ.
     fn default() -> Self {
         Self {
             thresholds_nm: SVector::repeat(DEFAULT_THRESHOLD_NM),
             velocity_coefficients: SVector::zeros(),
             release_ratio: 0.8,
-            debounce_samples: 2,
+            debounce_samples: 1,
             release_samples: 20,
             isolation_ratio: 0.5,
         }

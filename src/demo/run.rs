@@ -684,11 +684,15 @@ fn plot_fig5(
             )
         })
         .collect();
+    // The observer's q̇ restarts with the free-motion run (new controller connection); its first
+    // 50 ms are the velocity filter settling, not a torque prediction, so they are not plotted.
+    let settled = ((0.05 / cycle_s) as usize).min(rows.len()).min(times.len());
+    let (rows, times, computed) = (&rows[settled..], &times[settled..], &computed[settled..]);
     let panels: Vec<Panel> = [1usize, 3, 5]
         .iter()
         .map(|&j| Panel {
             title: format!(
-                "joint {}: measured τ_J (thin) vs computed with the estimate (thick); contacts at 1, 8, 17 s",
+                "joint {}: measured τ_J (dashed) vs computed with the estimate (solid); contacts at 1, 8, 17 s",
                 j + 1
             ),
             y_label: "Nm".into(),

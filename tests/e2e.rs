@@ -267,7 +267,7 @@ async fn collision_during_a_workflow_stops_the_arm_and_aborts() {
         "{e:?}"
     );
     let status = call(&mut c, Command::Status).await.unwrap();
-    assert_eq!(status["stopped"], true, "{status}");
+    assert_eq!(status["stopped"], true, "aborted with {e:?}; then {status}");
     // A move is refused while stopped.
     let e = call(
         &mut c,

@@ -365,8 +365,14 @@ impl ServiceCore {
                     Err(RecvError::Closed) => return Err(err(ErrorCode::NotReady, "the FRI loop has stopped")),
                 },
                 e = events.recv() => match e {
-                    Ok(RtEvent::Collision(c)) => return Err(err(ErrorCode::Aborted, format!("collision detected (link {}) at {:.3} s", c.link, c.time_s))),
-                    Ok(RtEvent::Stopped { collision, .. }) => return Err(err(ErrorCode::Aborted, if collision { "stopped by the collision reaction" } else { "stopped by the operator" })),
+                    Ok(RtEvent::Collision(c)) => {
+                        await_stopped_state(&mut states).await;
+                        return Err(err(ErrorCode::Aborted, format!("collision detected (link {}) at {:.3} s", c.link, c.time_s)));
+                    }
+                    Ok(RtEvent::Stopped { collision, .. }) => {
+                        await_stopped_state(&mut states).await;
+                        return Err(err(ErrorCode::Aborted, if collision { "stopped by the collision reaction" } else { "stopped by the operator" }));
+                    }
                     Ok(RtEvent::MoveAborted { .. }) => {
                         let stopped = self.shared.latest().is_some_and(|s| s.flags & flags::STOPPED != 0);
                         if stopped || retries >= MOVE_RETRIES {
@@ -452,6 +458,7 @@ impl ServiceCore {
                 },
                 ev = events.recv() => {
                     if let Ok(RtEvent::Stopped { .. }) = ev {
+                        await_stopped_state(&mut states).await;
                         return Err(err(ErrorCode::Aborted, "stopped while sampling"));
                     }
                 },
@@ -868,4 +875,23 @@ pub fn static_csv_row(s: &StaticSample) -> String {
             .map(|x| format!("{x}"))
             .collect();
     v.join(",") + "\n"
+}
+
+/// Waits (at most 0.2 s) until a published state shows the arm stopped.
+///
+/// Events and state snapshots reach the workflows on separate channels, so a collision event can
+/// overtake the snapshot of its own cycle; an operator who receives "aborted" must then already
+/// read `stopped` in `status`.
+async fn await_stopped_state(states: &mut tokio::sync::broadcast::Receiver<RobotState>) {
+    let deadline = Instant::now() + Duration::from_millis(200);
+    loop {
+        tokio::select! {
+            s = states.recv() => match s {
+                Ok(s) if s.flags & flags::STOPPED != 0 => return,
+                Ok(_) | Err(RecvError::Lagged(_)) => {}
+                Err(RecvError::Closed) => return,
+            },
+            _ = tokio::time::sleep_until(deadline) => return,
+        }
+    }
 }

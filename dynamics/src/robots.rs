@@ -116,11 +116,20 @@ pub fn lwr4_links() -> [InertialParameters; 7] {
 pub fn lwr4_limits() -> JointLimits<7> {
     let deg = |v: [f64; 7]| SVector::<f64, 7>::from(v.map(f64::to_radians));
     JointLimits::symmetric(
-        deg([170.0, 120.0, 170.0, 120.0, 170.0, 120.0, 170.0]),
-        deg([110.0, 110.0, 128.0, 128.0, 204.0, 184.0, 184.0]),
-        SVector::<f64, 7>::from([176.0, 176.0, 100.0, 100.0, 100.0, 38.0, 38.0]),
+        deg(LWR4_POSITION_LIMITS_DEG),
+        deg(LWR4_VELOCITY_LIMITS_DEG_S),
+        SVector::<f64, 7>::from(LWR4_TORQUE_LIMITS_NM),
     )
 }
+
+/// LWR 4+ joint position limits, ± deg (lwr4-model.md §1.2).
+pub const LWR4_POSITION_LIMITS_DEG: [f64; 7] = [170.0, 120.0, 170.0, 120.0, 170.0, 120.0, 170.0];
+
+/// LWR 4+ joint velocity limits, deg/s (lwr4-model.md §1.2, CentroEPiaggio set).
+pub const LWR4_VELOCITY_LIMITS_DEG_S: [f64; 7] = [110.0, 110.0, 128.0, 128.0, 204.0, 184.0, 184.0];
+
+/// LWR 4+ joint torque limits, ± Nm (lwr4-model.md §1.2).
+pub const LWR4_TORQUE_LIMITS_NM: [f64; 7] = [176.0, 176.0, 100.0, 100.0, 100.0, 38.0, 38.0];
 
 fn lwr_flange() -> Isometry3<f64> {
     Isometry3::translation(0.0, 0.0, LWR_FLANGE_OFFSET)

@@ -11,28 +11,23 @@ use crate::config::JOINTS;
 use crate::error::{SimError, ensure};
 use crate::sensors::JointVector;
 
-/// Joint velocity limits of the LWR 4+, rad/s (lwr4-model.md §1.2: 110, 110, 128, 128, 204,
-/// 184, 184 deg/s).
-pub const VELOCITY_LIMITS_RAD_S: [f64; JOINTS] = [
-    110.0 * std::f64::consts::PI / 180.0,
-    110.0 * std::f64::consts::PI / 180.0,
-    128.0 * std::f64::consts::PI / 180.0,
-    128.0 * std::f64::consts::PI / 180.0,
-    204.0 * std::f64::consts::PI / 180.0,
-    184.0 * std::f64::consts::PI / 180.0,
-    184.0 * std::f64::consts::PI / 180.0,
-];
+/// Joint velocity limits of the LWR 4+, rad/s (from `dynamics`' lwr4-model.md §1.2 table).
+pub const VELOCITY_LIMITS_RAD_S: [f64; JOINTS] =
+    degrees_to_radians(dynamics::LWR4_VELOCITY_LIMITS_DEG_S);
 
-/// Joint position limits of the LWR 4+, ± rad (170, 120, 170, 120, 170, 120, 170 deg).
-pub const POSITION_LIMITS_RAD: [f64; JOINTS] = [
-    170.0 * std::f64::consts::PI / 180.0,
-    120.0 * std::f64::consts::PI / 180.0,
-    170.0 * std::f64::consts::PI / 180.0,
-    120.0 * std::f64::consts::PI / 180.0,
-    170.0 * std::f64::consts::PI / 180.0,
-    120.0 * std::f64::consts::PI / 180.0,
-    170.0 * std::f64::consts::PI / 180.0,
-];
+/// Joint position limits of the LWR 4+, ± rad (from `dynamics`' lwr4-model.md §1.2 table).
+pub const POSITION_LIMITS_RAD: [f64; JOINTS] =
+    degrees_to_radians(dynamics::LWR4_POSITION_LIMITS_DEG);
+
+const fn degrees_to_radians(degrees: [f64; JOINTS]) -> [f64; JOINTS] {
+    let mut radians = [0.0; JOINTS];
+    let mut i = 0;
+    while i < JOINTS {
+        radians[i] = degrees[i] * std::f64::consts::PI / 180.0;
+        i += 1;
+    }
+    radians
+}
 
 /// Default PTP speed as a fraction of the joint velocity limits.
 pub const DEFAULT_SPEED_FRACTION: f64 = 0.3;

@@ -178,6 +178,9 @@ pub struct OperatorError {
     pub code: ErrorCode,
     /// What went wrong and, where possible, what to do.
     pub message: String,
+    /// The typed cause with the controller's view at the time, where the service knows it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cause: Option<super::cause::Cause>,
 }
 
 impl OperatorError {
@@ -186,7 +189,14 @@ impl OperatorError {
         Self {
             code,
             message: message.into(),
+            cause: None,
         }
+    }
+
+    /// This error with its typed cause.
+    pub fn with_cause(mut self, cause: super::cause::Cause) -> Self {
+        self.cause = Some(cause);
+        self
     }
 }
 

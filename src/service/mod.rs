@@ -9,6 +9,7 @@
 
 pub mod core;
 pub mod cyclekit;
+pub mod events;
 pub mod fanout;
 pub mod handler;
 pub mod pattern;

@@ -231,11 +231,14 @@ async fn tare_under(sim: SimulationConfig, inject: impl FnOnce(&Daemon) + Send +
     );
 }
 
+/// The unloaded arm (a tare needs no payload; the service has none applied).
 fn quiet(seed: u64) -> SimulationConfig {
-    SimulationConfig {
+    let mut c = SimulationConfig {
         seed,
         ..SimulationConfig::default()
-    }
+    };
+    c.payload.attached_at_start = false;
+    c
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -194,10 +194,15 @@ impl ServiceCore {
     fn stop_error(reason: StopReason, fri: FriContext) -> OperatorError {
         let cause = match reason {
             StopReason::Operator => Cause::OperatorStop,
-            StopReason::Collision { .. } => {
-                // The collision event carries the details; the stop alone knows the link.
-                return err(ErrorCode::Aborted, reason.describe());
-            }
+            StopReason::Collision {
+                link,
+                time_s,
+                residual,
+            } => Cause::Collision {
+                link,
+                time_s,
+                residual,
+            },
             StopReason::ObserverFault { fault } => Cause::ObserverFault {
                 fault: fault.to_string(),
                 fri,

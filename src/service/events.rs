@@ -53,6 +53,10 @@ pub enum StopReason {
     Collision {
         /// Isolated link, 1..7.
         link: u32,
+        /// Time of the onset, s since the service started (controller time).
+        time_s: f64,
+        /// Residual at the onset, Nm (joints 1..7).
+        residual: [f64; 7],
     },
     /// The armed monitor could no longer vouch for the arm: an observer fault.
     ObserverFault {
@@ -66,7 +70,7 @@ impl StopReason {
     pub fn describe(&self) -> String {
         match self {
             StopReason::Operator => "stopped by the operator".to_owned(),
-            StopReason::Collision { link } => {
+            StopReason::Collision { link, .. } => {
                 format!("stopped by the collision reaction (contact on link {link})")
             }
             StopReason::ObserverFault { fault } => {

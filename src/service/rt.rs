@@ -109,6 +109,7 @@ pub struct CycleProcessor {
     setpoint: Option<V7>,
     operator_stop: bool,
     reaction_hold: bool,
+    resume_when_clear: bool,
     interrupted_target: Option<V7>,
     last_request_cycle: u64,
     last_residual: V7,
@@ -155,6 +156,7 @@ impl CycleProcessor {
             setpoint: None,
             operator_stop: false,
             reaction_hold: false,
+            resume_when_clear: false,
             interrupted_target: None,
             last_request_cycle: 0,
             last_residual: V7::zeros(),
@@ -219,6 +221,7 @@ impl CycleProcessor {
                 }
                 RtRequest::Stop => {
                     self.operator_stop = true;
+                    self.resume_when_clear = false;
                     self.brake();
                     self.emit(RtEvent::Stopped {
                         cycle: self.cycle,
@@ -227,15 +230,12 @@ impl CycleProcessor {
                     });
                 }
                 RtRequest::Resume => {
-                    let was = self.is_holding();
-                    self.operator_stop = false;
-                    self.reaction_hold = false;
-                    self.interrupted_target = None;
-                    // The hold ended here: the supervisor must be ready for the next onset
-                    // (a contact still present is detected again at once).
-                    self.monitor.release_reaction();
-                    if was {
-                        self.emit(RtEvent::Resumed { cycle: self.cycle });
+                    // Into a contact that is still present, the resume waits for its release
+                    // (the old reaction would otherwise be replaced by a new one at once).
+                    if self.armed && self.monitor.detector().in_contact() {
+                        self.resume_when_clear = true;
+                    } else {
+                        self.resume(fri);
                     }
                 }
                 RtRequest::SetPayload(p) => {
@@ -258,6 +258,20 @@ impl CycleProcessor {
                     self.monitor = m;
                 }
             }
+        }
+    }
+
+    /// Ends every hold (operator stop, reaction) and readies the reaction for the next onset.
+    fn resume(&mut self, _fri: FriContext) {
+        let was = self.is_holding();
+        self.resume_when_clear = false;
+        self.operator_stop = false;
+        self.reaction_hold = false;
+        self.interrupted_target = None;
+        // The hold ended here: the supervisor must be ready for the next onset.
+        self.monitor.release_reaction();
+        if was {
+            self.emit(RtEvent::Resumed { cycle: self.cycle });
         }
     }
 
@@ -285,9 +299,15 @@ impl CycleProcessor {
             | ReactionRequest::Pause { cause, .. }
             | ReactionRequest::HoldForOperator(cause) => {
                 let reason = match cause {
-                    StopCause::Collision(e) => StopReason::Collision {
-                        link: (e.isolated_link + 1) as u32,
-                    },
+                    StopCause::Collision(e) => {
+                        let mut residual = [0.0; 7];
+                        residual.copy_from_slice(e.residual.as_slice());
+                        StopReason::Collision {
+                            link: (e.isolated_link + 1) as u32,
+                            time_s: self.time_s,
+                            residual,
+                        }
+                    }
                     StopCause::Fault(fault) => StopReason::ObserverFault { fault },
                 };
                 if matches!(reason, StopReason::Collision { .. }) && !self.settings.react {
@@ -357,6 +377,7 @@ impl CycleProcessor {
 
         self.handle_requests(fri);
 
+        self.follow_command_mode(msr, restarted, fri);
         let q = V7::from(msr.data.msr_jnt_pos);
         self.wait_for_rest(&q, dt);
         let tau = V7::from(msr.data.msr_jnt_trq);
@@ -384,8 +405,11 @@ impl CycleProcessor {
         if let Some(r) = out.reaction {
             self.apply_reaction(r, fri);
         }
+        if self.resume_when_clear && !self.monitor.detector().in_contact() {
+            self.resume(fri);
+        }
 
-        let (desired, new_request) = self.command(msr, handshake, request, restarted, fri);
+        let (desired, new_request) = self.command(msr, handshake, request, fri);
         self.publish(msr, &out.observer.velocity);
         (desired, new_request)
     }
@@ -419,14 +443,9 @@ impl CycleProcessor {
         self.monitor.restart();
     }
 
-    fn command(
-        &mut self,
-        msr: &Measurement,
-        handshake: HandshakeStatus,
-        request: HandshakeRequest,
-        restarted: bool,
-        fri: FriContext,
-    ) -> (DesiredCommand, Option<(RequestKind, KrlStrategy)>) {
+    /// Follows the controller's command mode; runs before the monitor steps, so that the
+    /// cycle in which the controller starts braking is already treated as such.
+    fn follow_command_mode(&mut self, msr: &Measurement, restarted: bool, fri: FriContext) {
         let in_command = msr.interface.state == InterfaceState::Command && msr.drives_powered();
         if in_command && !self.in_command {
             // Entry: the session's step limits start from the mirrored set-point.
@@ -459,7 +478,16 @@ impl CycleProcessor {
             self.command_wanted = self.command_wanted && !self.operator_stop;
         }
         self.in_command = in_command;
+    }
 
+    fn command(
+        &mut self,
+        msr: &Measurement,
+        handshake: HandshakeStatus,
+        request: HandshakeRequest,
+        fri: FriContext,
+    ) -> (DesiredCommand, Option<(RequestKind, KrlStrategy)>) {
+        let in_command = self.in_command;
         let new_request = self.handshake(msr, handshake, request);
 
         let mut desired = DesiredCommand::default();

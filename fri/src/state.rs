@@ -4,7 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::handshake::{HandshakeRequest, HandshakeStatus};
-use crate::session::SessionStatistics;
+use crate::session::{Arrival, SessionStatistics};
 use crate::wire::{
     Command, ControlStrategy, Frame, InterfaceState, InterfaceStatistics, JOINTS, KRL_VALUES,
     Measurement, Quality,
@@ -33,6 +33,12 @@ pub struct RobotState {
     pub valid: bool,
     /// Newest accepted measurement.
     pub measurement: Measurement,
+    /// How `measurement` follows the measurement the previous cycle (hook call) saw:
+    /// `Continued { cycles }` with the controller cycles elapsed (1 in order, n + 1 after n lost
+    /// or superseded measurements; multiply by the cycle time for dt), or the start of an epoch
+    /// (`First`, `Restart`, `Rebind`: reset filters and differences). `None` before the first
+    /// measurement. See [`Arrival`].
+    pub arrival: Option<Arrival>,
     /// The reply we sent last (after mirroring and limits).
     pub last_reply: Command,
     /// The KRL program's handshake report.
@@ -52,6 +58,7 @@ impl Default for RobotState {
         Self {
             valid: false,
             measurement: Measurement::default(),
+            arrival: None,
             last_reply: Command::default(),
             handshake: HandshakeStatus::NOT_REPORTED,
             request: HandshakeRequest::NONE,

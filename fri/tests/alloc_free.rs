@@ -65,8 +65,10 @@ fn one_cycle_allocates_nothing() {
             writer.publish(&state);
             replies += 1;
         }
-        // Rejections are allocation-free too.
+        // Rejections are allocation-free too, a foreign source's among them.
         assert!(session.receive(&monitor[..915], src, t0).is_err());
+        let foreign: SocketAddr = "192.168.0.20:50000".parse().unwrap();
+        assert!(session.receive(&commanding[0], foreign, t0).is_err());
         assert!(session.receive(&[], src, t0).is_err());
     });
     assert_eq!(allocations, 0);

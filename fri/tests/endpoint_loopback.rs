@@ -352,3 +352,50 @@ fn command_mode_replies_respect_frozen_flags_and_step_limits_every_cycle() {
     assert!(s.statistics.limits.mirrored_overrides >= 15);
     endpoint.shutdown().unwrap();
 }
+
+#[test]
+fn a_spoofing_socket_on_another_port_is_never_answered_and_never_disturbs_the_controller() {
+    use fri::session::Arrival;
+    use fri::wire::{MSR_LEN, Measurement};
+    let endpoint = Endpoint::spawn(config(), monitor_hook()).unwrap();
+    let peer = Peer::new(endpoint.local_addr());
+    let spoof = Peer::new(endpoint.local_addr());
+    assert_ne!(
+        peer.socket.local_addr().unwrap(),
+        spoof.socket.local_addr().unwrap()
+    );
+    // The genuine controller talks first and is bound.
+    peer.send(&measurement_datagram(1000, 0));
+    assert_eq!(peer.reply().refl_seq_count(), 1000);
+    let s = wait_for(&endpoint, |s| s.statistics.replies_sent == 1);
+    assert_eq!(s.arrival, Some(Arrival::First));
+    // The spoof runs 500 counts ahead in command mode with a set-point shifted by 0.8 mrad.
+    let mut forged: Measurement = common::base_measurement();
+    forged.interface.state = InterfaceState::Command;
+    for q in &mut forged.data.cmd_jnt_pos {
+        *q += 8.0e-4;
+    }
+    let spoofs = 50u16;
+    for seq in 1001..1001 + spoofs {
+        forged.header.send_seq_count = seq + 500;
+        let mut b = [0u8; MSR_LEN];
+        forged.emit(&mut b).unwrap();
+        spoof.send(&b);
+        peer.send(&measurement_datagram(seq, 0));
+        let r = peer.reply();
+        assert_eq!(r.refl_seq_count(), seq);
+        assert_eq!(r.jnt_pos(), mirrored_set_point(), "seq {seq}");
+    }
+    spoof.expect_silence(Duration::from_millis(100));
+    let s = wait_for(&endpoint, |s| {
+        s.statistics.rejections.unexpected_source == u64::from(spoofs)
+    });
+    assert_eq!(s.statistics.rejections.unexpected_source, u64::from(spoofs));
+    let q = s.statistics.sequence;
+    assert_eq!((q.lost, q.reordered, q.restarted, q.rebinds), (0, 0, 0, 0));
+    assert_eq!(s.statistics.replies_sent, u64::from(spoofs) + 1);
+    assert_eq!(s.krc_sequence_counter(), 1000 + spoofs);
+    assert_eq!(s.fri_state(), InterfaceState::Monitor);
+    assert_eq!(s.arrival, Some(Arrival::Continued { cycles: 1 }));
+    endpoint.shutdown().unwrap();
+}

@@ -156,9 +156,18 @@ fn network_faults_and_restart_are_survived_and_counted() {
     );
     // Every duplicate arrives after the original was taken: counted stale, not as an answer.
     assert!(counters.stale >= faults.duplicated - faults.corrupted);
-    // Each cycle's single answer is missed exactly when it was lost or damaged.
+    // Each cycle's single answer is missed exactly when it was lost or damaged, or when the
+    // client refused the measurement: after the instant restart the new counter is out of the
+    // window until the old one has been silent for `resync_after` (1 s at 1 ms: 1000 cycles).
+    let refused = client.session.statistics().rejections;
+    assert_eq!(refused.total(), refused.out_of_window);
+    assert!((999..=1001).contains(&refused.out_of_window), "{refused:?}");
+    assert_eq!(client.session.statistics().sequence.restarted, 1);
     assert!(counters.malformed >= faults.corrupted);
-    assert_eq!(counters.missed_cycles, faults.lost + faults.corrupted);
+    assert_eq!(
+        counters.missed_cycles,
+        faults.lost + faults.corrupted + refused.out_of_window
+    );
     assert!(counters.missed_cycles >= faults.lost);
     assert_eq!(restarts_seen, 1);
     assert_eq!(counters.restarts, 1);

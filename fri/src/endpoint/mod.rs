@@ -334,6 +334,7 @@ impl<H: CycleHook> Loop<H> {
             s.measurement = *m;
             s.handshake = HandshakeStatus::read_from_measurement(m);
         }
+        s.arrival = self.session.last_arrival();
         s.last_reply = *self.session.last_reply();
         s.request = self.session.current_request();
         s.statistics = self.session.statistics();

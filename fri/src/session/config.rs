@@ -26,8 +26,9 @@ pub const DEFAULT_JOINT_DAMPING: f64 = 0.7;
 /// Rules and limits of a [`super::Session`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct SessionConfig {
-    /// Accept measurements only from this IP address (`None`: any source; replies always go to
-    /// the source of the newest accepted measurement).
+    /// Accept measurements only from this IP address (`None`: any address). Within the filter
+    /// the session binds to one source (address and port), the first valid one, and answers
+    /// only it; see `Session::bound_controller`.
     pub controller_ip: Option<IpAddr>,
     /// Accept measurements only from this UDP port (`None`: any port).
     pub controller_port: Option<u16>,
@@ -40,9 +41,12 @@ pub struct SessionConfig {
     /// Strategy whose command flags are sent in monitor mode before any start request.
     pub default_strategy: KrlStrategy,
     /// Largest forward gap accepted as loss, and largest backward distance rejected as
-    /// reordering; anything further is taken as a controller restart. Counts of datagrams.
+    /// reordering; anything further is rejected as out of the window while the controller
+    /// talks. Counts of datagrams.
     pub sequence_window: u16,
-    /// Silence after which any sequence number is accepted as a restart.
+    /// Silence of the bound controller (time since its last accepted datagram) after which any
+    /// sequence number of it is accepted as a restart, and a datagram from another source
+    /// within the address filter re-binds the session; both start a new epoch.
     pub resync_after: Duration,
 }
 

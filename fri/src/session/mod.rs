@@ -2,8 +2,16 @@
 //!
 //! Each cycle: [`Session::receive`] validates a measurement datagram (source, length, header,
 //! finiteness, enum values, sequence number), updates counters and keeps it as the last good
-//! measurement; the application looks at it and fills a [`DesiredCommand`];
-//! [`Session::respond`] turns that into a command the controller accepts and encodes it.
+//! measurement; the application looks at it (and at [`Session::last_arrival`]) and fills a
+//! [`DesiredCommand`]; [`Session::respond`] turns that into a command the controller accepts
+//! and encodes it.
+//!
+//! The session is bound to one controller source (address and port): the configured one, or
+//! else the first valid source. Datagrams from any other source are rejected and never
+//! answered; a new source is bound only after the bound controller fell silent for longer than
+//! `resync_after` (module `peer`). Likewise a sequence number far from the newest accepted one
+//! is a restart only after such a silence, never while the controller talks (module
+//! `sequence`), so neither a spoof nor a replay can reset or steer the session.
 //!
 //! Rules enforced on every reply (spec §2.6), so application code cannot trip the controller:
 //! - header: our own counter (+1 per reply, wrapping) and the controller's counter reflected;
@@ -48,6 +56,7 @@
 //! ```
 
 mod config;
+mod peer;
 mod sequence;
 mod shaping;
 mod stats;
@@ -56,7 +65,7 @@ pub use config::{
     DEFAULT_JOINT_DAMPING, DEFAULT_JOINT_STIFFNESS, DEFAULT_MAX_ADDED_TORQUE_STEP,
     DEFAULT_MAX_JOINT_STEP, DEFAULT_MAX_JOINT_STIFFNESS, DesiredCommand, SessionConfig,
 };
-pub use sequence::SequenceCounters;
+pub use sequence::{Arrival, SequenceCounters};
 pub use stats::{
     LimitCounters, RejectionCounters, SessionStatistics, TIMING_WINDOW, TimingStatistics,
     WindowFigures,
@@ -69,7 +78,8 @@ use crate::handshake::{HandshakeRequest, HandshakeStatus, KrlStrategy, RequestKi
 use crate::wire::{
     CMD_LEN, Command, CommandFlags, InterfaceState, Measurement, Quality, WireError,
 };
-use sequence::{SequenceTracker, Verdict};
+use peer::{Admission, Peer};
+use sequence::{Refusal, SequenceTracker};
 use shaping::build;
 use stats::Window;
 
@@ -79,7 +89,8 @@ pub enum Rejection {
     /// Length, header or float content is invalid.
     #[error("invalid measurement datagram: {0}")]
     Wire(#[from] WireError),
-    /// The datagram did not come from the configured controller.
+    /// The datagram did not come from the bound controller (or not from the configured
+    /// address), and the bound controller has not been silent long enough for a re-bind.
     #[error("datagram from unexpected source {0}")]
     UnexpectedSource(SocketAddr),
     /// `intf.state` holds a value outside −1…2.
@@ -98,6 +109,15 @@ pub enum Rejection {
     #[error("reordered measurement, sequence {seq} after {newest}")]
     Reordered {
         /// The stale sequence number.
+        seq: u16,
+        /// The newest accepted sequence number.
+        newest: u16,
+    },
+    /// Neither within the window ahead of nor behind the newest accepted measurement while the
+    /// bound controller talks (a replay or a forgery, not a restart).
+    #[error("sequence {seq} out of the window around {newest} while the controller talks")]
+    OutOfWindow {
+        /// The refused sequence number.
         seq: u16,
         /// The newest accepted sequence number.
         newest: u16,
@@ -146,7 +166,13 @@ pub enum StepError {
 pub struct Session {
     config: SessionConfig,
     stats: SessionStatistics,
+    /// The controller source we listen to and answer.
+    peer: Peer,
     sequence: SequenceTracker,
+    /// How the newest accepted measurement follows the previous answered one.
+    arrival: Option<Arrival>,
+    /// Whether `arrival` was handed to `respond` (otherwise the next one folds it in).
+    arrival_answered: bool,
     arrival_period: Window,
     arrival_jitter: Window,
     response_time: Window,
@@ -180,7 +206,10 @@ impl Session {
             selected_strategy: config.default_strategy,
             config,
             stats: SessionStatistics::default(),
+            peer: Peer::default(),
             sequence: SequenceTracker::default(),
+            arrival: None,
+            arrival_answered: false,
             arrival_period: Window::default(),
             arrival_jitter: Window::default(),
             response_time: Window::default(),
@@ -210,7 +239,7 @@ impl Session {
     ) -> Result<&Measurement, Rejection> {
         self.stats.datagrams_received += 1;
         match self.validate(datagram, source, now) {
-            Ok((msr, verdict)) => Ok(self.accept(msr, verdict, source, now)),
+            Ok((msr, arrival)) => Ok(self.accept(msr, arrival, source, now)),
             Err(rejection) => {
                 self.count_rejection(&rejection);
                 Err(rejection)
@@ -223,15 +252,10 @@ impl Session {
         datagram: &[u8],
         source: SocketAddr,
         now: Instant,
-    ) -> Result<(Measurement, Verdict), Rejection> {
-        let ip_ok = self.config.controller_ip.is_none_or(|ip| ip == source.ip());
-        let port_ok = self
-            .config
-            .controller_port
-            .is_none_or(|p| p == source.port());
-        if !(ip_ok && port_ok) {
-            return Err(Rejection::UnexpectedSource(source));
-        }
+    ) -> Result<(Measurement, Arrival), Rejection> {
+        // The source first: a foreign datagram must not reach any state, whatever it holds.
+        let silent = self.sequence.silent(now, self.config.resync_after);
+        let admission = self.peer.admit(source, &self.config, silent)?;
         let msr = Measurement::parse(datagram)?;
         if let InterfaceState::Unknown(raw) = msr.interface.state {
             return Err(Rejection::UnknownState(raw));
@@ -240,42 +264,50 @@ impl Session {
             return Err(Rejection::UnknownQuality(raw));
         }
         let seq = msr.header.send_seq_count;
-        let verdict = self.sequence.classify(
-            seq,
-            now,
-            self.config.sequence_window,
-            self.config.resync_after,
-        );
-        match verdict {
-            Verdict::Duplicate => Err(Rejection::Duplicate { seq }),
-            Verdict::Reordered => Err(Rejection::Reordered {
-                seq,
-                newest: self.sequence.newest().unwrap_or(seq),
-            }),
-            _ => Ok((msr, verdict)),
-        }
+        let arrival = match admission {
+            Admission::First => Arrival::First,
+            Admission::Rebind => Arrival::Rebind,
+            Admission::Bound => self.classify(seq, now)?,
+        };
+        Ok((msr, arrival))
+    }
+
+    /// The sequence verdict on `seq` of the bound controller.
+    fn classify(&self, seq: u16, now: Instant) -> Result<Arrival, Rejection> {
+        let c = &self.config;
+        let newest = self.sequence.newest().unwrap_or(seq);
+        self.sequence
+            .classify(seq, now, c.sequence_window, c.resync_after)
+            .map_err(|refusal| match refusal {
+                Refusal::Duplicate => Rejection::Duplicate { seq },
+                Refusal::Reordered => Rejection::Reordered { seq, newest },
+                Refusal::OutOfWindow => Rejection::OutOfWindow { seq, newest },
+            })
     }
 
     fn accept(
         &mut self,
         msr: Measurement,
-        verdict: Verdict,
+        arrival: Arrival,
         source: SocketAddr,
         now: Instant,
     ) -> &Measurement {
-        debug_assert!(verdict.accepted());
         let s = &mut self.stats;
         s.measurements_accepted += 1;
-        match verdict {
-            Verdict::Gap(lost) => s.sequence.lost += u64::from(lost),
-            Verdict::Restart => {
-                s.sequence.restarted += 1;
+        match arrival {
+            Arrival::Continued { cycles } => s.sequence.lost += u64::from(cycles) - 1,
+            Arrival::Restart | Arrival::Rebind => {
+                if arrival == Arrival::Restart {
+                    s.sequence.restarted += 1;
+                } else {
+                    s.sequence.rebinds += 1;
+                }
                 // A new epoch: the controller knows nothing of our previous replies.
                 self.previous_send_seq = None;
                 self.have_reply = false;
                 self.frozen_flags = None;
             }
-            Verdict::First | Verdict::InOrder | Verdict::Duplicate | Verdict::Reordered => {}
+            Arrival::First => {}
         }
         if let Some(prev) = self.previous_send_seq
             && msr.header.refl_seq_count != prev
@@ -285,15 +317,20 @@ impl Session {
         if self.awaiting_reply {
             s.sequence.superseded += 1;
         }
-        if let (Some((_, _, last_at)), Verdict::InOrder | Verdict::Gap(_)) =
-            (&self.last_good, verdict)
-        {
+        if let (Some((_, _, last_at)), Arrival::Continued { .. }) = (&self.last_good, arrival) {
             let period = now.saturating_duration_since(*last_at).as_secs_f64();
             self.arrival_period.push(period);
             self.arrival_jitter
                 .push((period - msr.interface.desired_msr_sample_time).abs());
         }
         self.sequence.accept(msr.header.send_seq_count, now);
+        self.peer.bind(source);
+        // The application sees only answered measurements: fold an unanswered one in.
+        self.arrival = Some(match self.arrival {
+            Some(previous) if !self.arrival_answered => previous.then(arrival),
+            _ => arrival,
+        });
+        self.arrival_answered = false;
         self.awaiting_reply = true;
         let (stored, _, _) = self.last_good.insert((msr, source, now));
         stored
@@ -319,6 +356,10 @@ impl Session {
                 c.reordered += 1;
                 self.stats.sequence.reordered += 1;
             }
+            Rejection::OutOfWindow { .. } => {
+                c.out_of_window += 1;
+                self.stats.sequence.out_of_window += 1;
+            }
         }
     }
 
@@ -338,6 +379,8 @@ impl Session {
         let Some((msr, source, received_at)) = &self.last_good else {
             return Err(ReplyError::NothingToAnswer);
         };
+        // From here on the application has acted on this measurement (even if encoding fails).
+        self.arrival_answered = true;
         let (source, received_at, mirrored) = (*source, *received_at, !Self::commanding(msr));
         let reflected = self.previous_send_seq == Some(msr.header.refl_seq_count);
         let mut cmd = build(
@@ -433,6 +476,19 @@ impl Session {
     /// The newest accepted measurement.
     pub fn last_measurement(&self) -> Option<&Measurement> {
         self.last_good.as_ref().map(|(m, _, _)| m)
+    }
+
+    /// How the newest accepted measurement follows the previous answered one (`None` before
+    /// the first): [`Arrival::Continued`] with the controller cycles elapsed, or the start of
+    /// an epoch. Rejected datagrams leave it alone.
+    pub fn last_arrival(&self) -> Option<Arrival> {
+        self.arrival
+    }
+
+    /// The controller source the session is bound to (`None` before the first accepted
+    /// measurement); replies go there, datagrams from elsewhere are rejected.
+    pub fn bound_controller(&self) -> Option<SocketAddr> {
+        self.peer.bound()
     }
 
     /// Source address and receive time of the newest accepted measurement.

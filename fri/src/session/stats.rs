@@ -26,12 +26,14 @@ pub struct RejectionCounters {
     pub unknown_state: u64,
     /// `intf.quality` not one of −1, 0…3.
     pub unknown_quality: u64,
-    /// Source address not the configured controller.
+    /// Source not the bound controller (or outside the configured address filter).
     pub unexpected_source: u64,
     /// Sequence number equal to the newest accepted one.
     pub duplicate: u64,
     /// Sequence number older than the newest accepted one.
     pub reordered: u64,
+    /// Sequence number far outside the window while the bound controller talks.
+    pub out_of_window: u64,
 }
 
 impl RejectionCounters {
@@ -48,6 +50,7 @@ impl RejectionCounters {
             + self.unexpected_source
             + self.duplicate
             + self.reordered
+            + self.out_of_window
     }
 }
 
@@ -206,7 +209,8 @@ mod tests {
             unexpected_source: 9,
             duplicate: 10,
             reordered: 11,
+            out_of_window: 12,
         };
-        assert_eq!(r.total(), 66);
+        assert_eq!(r.total(), 78);
     }
 }

@@ -40,10 +40,16 @@ impl Client {
         let now = self.start + Duration::from_secs_f64(sim.time_s());
         let mut out = [0u8; CMD_LEN];
         if self.answer {
-            self.session
+            // Like every remote, answer accepted measurements only: after the simulated
+            // controller's instant restart its counter is out of the window (a replay, for all
+            // the session knows) until `resync_after` of silence has passed.
+            if self
+                .session
                 .step(&msr_bytes, controller_addr(), now, &self.desired, &mut out)
-                .unwrap();
-            sim.submit_datagram(&out, 0.0);
+                .is_ok()
+            {
+                sim.submit_datagram(&out, 0.0);
+            }
         } else {
             let _ = self.session.receive(&msr_bytes, controller_addr(), now);
         }

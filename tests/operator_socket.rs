@@ -78,6 +78,40 @@ async fn stale_socket_file_is_replaced() {
 }
 
 #[tokio::test]
+async fn bind_refuses_to_remove_anything_but_a_stale_socket() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("precious.txt");
+    std::fs::write(&file, "keep me").unwrap();
+    let e = server::bind(&file).await.unwrap_err().to_string();
+    assert!(
+        e.contains("operator.socket") && e.contains("regular file"),
+        "{e}"
+    );
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "keep me");
+
+    let sub = dir.path().join("a-directory");
+    std::fs::create_dir(&sub).unwrap();
+    let e = server::bind(&sub).await.unwrap_err().to_string();
+    assert!(
+        e.contains("operator.socket") && e.contains("directory"),
+        "{e}"
+    );
+    assert!(sub.is_dir());
+
+    // A symlink, even to a stale socket, is not removed (nor is its target).
+    let stale = dir.path().join("stale.sock");
+    drop(std::os::unix::net::UnixListener::bind(&stale).unwrap());
+    let link = dir.path().join("link.sock");
+    std::os::unix::fs::symlink(&stale, &link).unwrap();
+    let e = server::bind(&link).await.unwrap_err().to_string();
+    assert!(
+        e.contains("operator.socket") && e.contains("symbolic link"),
+        "{e}"
+    );
+    assert!(std::fs::symlink_metadata(&link).is_ok() && stale.exists());
+}
+
+#[tokio::test]
 async fn request_reply_and_streamed_events() {
     let (_dir, path, _tx) = start(ServerLimits::default()).await;
     let mut c = Client::connect(&path).await.unwrap();

@@ -117,10 +117,49 @@ pub enum ServerError {
     /// Another server answers on the socket path.
     #[error("another service is already listening on {0}")]
     InUse(std::path::PathBuf),
+    /// Something other than a socket exists at the path; it is never removed.
+    #[error(
+        "operator.socket {path} is a {found}, not a socket; refusing to replace it (remove it or \
+         choose another operator.socket)"
+    )]
+    NotASocket {
+        /// The path.
+        path: std::path::PathBuf,
+        /// What was found there, e.g. `regular file`.
+        found: &'static str,
+    },
+    /// A socket file exists but connecting failed for another reason than "nobody listens", so
+    /// it cannot be called stale.
+    #[error("operator.socket {path}: cannot tell whether the existing socket is stale: {source}")]
+    Unprobeable {
+        /// The path.
+        path: std::path::PathBuf,
+        /// The connect error.
+        source: std::io::Error,
+    },
 }
 
-/// Binds the operator socket at `path` with mode 0660, removing a stale socket file left by a
-/// crashed instance (but refusing when a live server answers there).
+/// What a file type is called in errors.
+fn describe(t: std::fs::FileType) -> &'static str {
+    use std::os::unix::fs::FileTypeExt;
+    if t.is_file() {
+        "regular file"
+    } else if t.is_dir() {
+        "directory"
+    } else if t.is_symlink() {
+        "symbolic link"
+    } else if t.is_fifo() {
+        "named pipe"
+    } else if t.is_block_device() || t.is_char_device() {
+        "device"
+    } else {
+        "file of unknown type"
+    }
+}
+
+/// Binds the operator socket at `path` with mode 0660. An existing socket file is removed only
+/// when it is stale (connecting is refused: a crashed instance left it); a live server there,
+/// or anything that is not a socket (checked without following symlinks), is an error.
 pub async fn bind(path: &Path) -> Result<UnixListener, ServerError> {
     let err = |action: &'static str| {
         let path = path.to_owned();
@@ -133,11 +172,30 @@ pub async fn bind(path: &Path) -> Result<UnixListener, ServerError> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(err("create directory for"))?;
     }
-    if path.exists() {
-        if UnixStream::connect(path).await.is_ok() {
-            return Err(ServerError::InUse(path.to_owned()));
+    match std::fs::symlink_metadata(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) => return Err(err("inspect")(e)),
+        Ok(meta) => {
+            use std::os::unix::fs::FileTypeExt;
+            if !meta.file_type().is_socket() {
+                return Err(ServerError::NotASocket {
+                    path: path.to_owned(),
+                    found: describe(meta.file_type()),
+                });
+            }
+            match UnixStream::connect(path).await {
+                Ok(_) => return Err(ServerError::InUse(path.to_owned())),
+                Err(e) if e.kind() == std::io::ErrorKind::ConnectionRefused => {
+                    std::fs::remove_file(path).map_err(err("remove stale socket"))?;
+                }
+                Err(source) => {
+                    return Err(ServerError::Unprobeable {
+                        path: path.to_owned(),
+                        source,
+                    });
+                }
+            }
         }
-        std::fs::remove_file(path).map_err(err("remove stale socket"))?;
     }
     let listener = UnixListener::bind(path).map_err(err("bind"))?;
     std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o660))

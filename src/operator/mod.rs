@@ -3,5 +3,6 @@
 
 pub mod client;
 pub mod frame;
+mod overflow;
 pub mod protocol;
 pub mod server;

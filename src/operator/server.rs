@@ -4,11 +4,16 @@
 //! Each request runs in its own task so a long workflow (estimation, watch) never blocks a `stop`
 //! sent on the same connection; replies of concurrent requests interleave by line and are matched
 //! by `id`. Nothing a client sends can stop the server: bad lines get error replies.
+//!
+//! Clients cannot lock out `stop`: a connection with no request in flight that sends nothing for
+//! `idle_timeout` is closed, and beyond the connection limit a few extra connections are still
+//! read up to their first line so that a `stop` is executed ([`super::overflow`]).
 
 use std::future::Future;
 use std::os::unix::fs::PermissionsExt;
 use std::path::Path;
 use std::sync::Arc;
+use std::time::Duration;
 
 use serde_json::Value;
 use tokio::io::AsyncWriteExt;
@@ -17,6 +22,7 @@ use tokio::sync::{Semaphore, mpsc, watch};
 use tracing::{debug, info, warn};
 
 use super::frame::{Frame, LineReader};
+use super::overflow;
 use super::protocol::{ErrorCode, OperatorError, Reply, RequestId, parse_request};
 
 /// Executes operator commands; implemented by the service (and by test doubles).
@@ -89,6 +95,13 @@ pub struct ServerLimits {
     pub max_clients: usize,
     /// Most requests running at once on one connection.
     pub max_in_flight: usize,
+    /// A connection with no request in flight that sends nothing for this long is closed.
+    pub idle_timeout: Duration,
+    /// Most connections at once beyond `max_clients` that are read for a `stop` only.
+    pub over_limit_connections: usize,
+    /// How long an over-limit connection may take to send its first line (and to take the
+    /// reply).
+    pub over_limit_grace: Duration,
 }
 
 impl Default for ServerLimits {
@@ -97,6 +110,9 @@ impl Default for ServerLimits {
             max_line_bytes: 65536,
             max_clients: 64,
             max_in_flight: 16,
+            idle_timeout: Duration::from_secs(30),
+            over_limit_connections: 4,
+            over_limit_grace: Duration::from_secs(2),
         }
     }
 }
@@ -212,6 +228,7 @@ pub async fn serve<H: Handler>(
     mut shutdown: watch::Receiver<bool>,
 ) {
     let clients = Arc::new(Semaphore::new(limits.max_clients));
+    let over_limit = Arc::new(Semaphore::new(limits.over_limit_connections));
     loop {
         let accepted = tokio::select! {
             a = listener.accept() => a,
@@ -225,10 +242,7 @@ pub async fn serve<H: Handler>(
                 continue;
             }
         };
-        let Ok(permit) = clients.clone().try_acquire_owned() else {
-            reject(stream, ErrorCode::Busy, "too many operator connections").await;
-            continue;
-        };
+        // Credentials first: even an over-limit connection may execute `stop`.
         match stream.peer_cred() {
             Ok(cred) if policy.allows(cred.uid(), cred.gid()) => {}
             Ok(cred) => {
@@ -251,11 +265,20 @@ pub async fn serve<H: Handler>(
             }
         }
         let handler = handler.clone();
-        let shutdown = shutdown.clone();
-        tokio::spawn(async move {
-            connection(stream, handler, limits, shutdown).await;
-            drop(permit);
-        });
+        if let Ok(permit) = clients.clone().try_acquire_owned() {
+            let shutdown = shutdown.clone();
+            tokio::spawn(async move {
+                connection(stream, handler, limits, shutdown).await;
+                drop(permit);
+            });
+        } else if let Ok(permit) = over_limit.clone().try_acquire_owned() {
+            tokio::spawn(async move {
+                overflow::stop_only(stream, handler, limits).await;
+                drop(permit);
+            });
+        } else {
+            reject(stream, ErrorCode::Busy, overflow::TOO_MANY).await;
+        }
     }
     info!("operator socket closed");
 }
@@ -286,9 +309,26 @@ async fn connection<H: Handler>(
     let mut reader = LineReader::new(read, limits.max_line_bytes);
     let mut tasks = tokio::task::JoinSet::new();
     loop {
+        // Idle: nothing in flight. The sleep restarts with every received line and every
+        // finished request; `next_frame` is cancel-safe (bytes read are kept in its buffer).
+        let idle = tasks.is_empty();
         let frame = tokio::select! {
-            f = reader.next_frame() => f,
+            f = reader.next_frame() => Some(f),
+            Some(_) = tasks.join_next(), if !idle => continue,
+            () = tokio::time::sleep(limits.idle_timeout), if idle => None,
             _ = shutdown.wait_for(|s| *s) => break,
+        };
+        let Some(frame) = frame else {
+            let e = OperatorError::new(
+                ErrorCode::Busy,
+                format!(
+                    "connection idle for {} s without a request; closed (operator.idle_timeout_s)",
+                    limits.idle_timeout.as_secs_f64()
+                ),
+            );
+            let _ = out_tx.send(Reply::err(None, e).to_line()).await;
+            debug!("closing idle operator connection");
+            break;
         };
         let line = match frame {
             Ok(Some(Frame::Line(line))) => line,

@@ -236,6 +236,9 @@ pub struct OperatorConfig {
     pub max_line_bytes: usize,
     /// Most simultaneous clients (default 64).
     pub max_clients: usize,
+    /// A connection with no request in flight that sends nothing for this long is closed, s
+    /// (default 30; 1 to 3600).
+    pub idle_timeout_s: f64,
 }
 
 impl Default for OperatorConfig {
@@ -246,6 +249,7 @@ impl Default for OperatorConfig {
             allowed_gids: Vec::new(),
             max_line_bytes: 65536,
             max_clients: 64,
+            idle_timeout_s: 30.0,
         }
     }
 }
@@ -393,6 +397,12 @@ impl Config {
             (1..=4096).contains(&self.operator.max_clients),
             "must be between 1 and 4096",
         )?;
+        let idle = self.operator.idle_timeout_s;
+        check(
+            "operator.idle_timeout_s",
+            idle.is_finite() && (1.0..=3600.0).contains(&idle),
+            "must be between 1 and 3600 s",
+        )?;
         check(
             "state.dir",
             !self.state.dir.as_os_str().is_empty(),
@@ -527,6 +537,14 @@ mod tests {
         assert_eq!(
             invalid_key("[operator]\nmax_line_bytes = 10\n"),
             "operator.max_line_bytes"
+        );
+        assert_eq!(
+            invalid_key("[operator]\nidle_timeout_s = 0.5\n"),
+            "operator.idle_timeout_s"
+        );
+        assert_eq!(
+            invalid_key("[operator]\nidle_timeout_s = nan\n"),
+            "operator.idle_timeout_s"
         );
         assert_eq!(
             invalid_key("[iceoryx2]\nglobal_prefix = \"a b\"\n"),

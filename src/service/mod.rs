@@ -169,6 +169,7 @@ impl RunningService {
         let limits = ServerLimits {
             max_line_bytes: c.max_line_bytes,
             max_clients: c.max_clients,
+            idle_timeout: std::time::Duration::from_secs_f64(c.idle_timeout_s),
             ..ServerLimits::default()
         };
         server::serve(

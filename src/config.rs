@@ -260,13 +260,26 @@ impl Default for OperatorConfig {
 pub struct StateConfig {
     /// Directory for applied payload, tare and calibration (default `/tmp/fri-service/state`).
     pub dir: PathBuf,
+    /// The only directory `record` writes to (default: `recordings` inside `dir`); requests
+    /// name a new file in it.
+    pub record_dir: Option<PathBuf>,
 }
 
 impl Default for StateConfig {
     fn default() -> Self {
         Self {
             dir: PathBuf::from("/tmp/fri-service/state"),
+            record_dir: None,
         }
+    }
+}
+
+impl StateConfig {
+    /// The recording directory: `record_dir`, or `recordings` inside `dir`.
+    pub fn record_dir(&self) -> PathBuf {
+        self.record_dir
+            .clone()
+            .unwrap_or_else(|| self.dir.join("recordings"))
     }
 }
 
@@ -409,6 +422,14 @@ impl Config {
             "must not be empty",
         )?;
         check(
+            "state.record_dir",
+            self.state
+                .record_dir
+                .as_ref()
+                .is_none_or(|d| !d.as_os_str().is_empty()),
+            "must not be empty (leave it out for `recordings` inside state.dir)",
+        )?;
+        check(
             "iceoryx2.service_prefix",
             !self.iceoryx2.service_prefix.is_empty()
                 && self.iceoryx2.service_prefix.len() <= 64
@@ -494,6 +515,17 @@ mod tests {
         assert_eq!(c.reaction.policy, ReactionPolicy::Stop);
         assert_eq!(c.estimation.settle_timeout_s, 1.0);
         assert_eq!(c.operator.socket, PathBuf::from(DEFAULT_SOCKET));
+        assert_eq!(
+            c.state.record_dir(),
+            PathBuf::from("/tmp/fri-service/state/recordings")
+        );
+        let c = Config::from_toml("[state]\ndir = \"/var/lib/fri\"\n").unwrap();
+        assert_eq!(
+            c.state.record_dir(),
+            PathBuf::from("/var/lib/fri/recordings")
+        );
+        let c = Config::from_toml("[state]\nrecord_dir = \"/data/rec\"\n").unwrap();
+        assert_eq!(c.state.record_dir(), PathBuf::from("/data/rec"));
     }
 
     #[test]
@@ -537,6 +569,10 @@ mod tests {
         assert_eq!(
             invalid_key("[operator]\nmax_line_bytes = 10\n"),
             "operator.max_line_bytes"
+        );
+        assert_eq!(
+            invalid_key("[state]\nrecord_dir = \"\"\n"),
+            "state.record_dir"
         );
         assert_eq!(
             invalid_key("[operator]\nidle_timeout_s = 0.5\n"),

@@ -85,6 +85,8 @@ impl RunningService {
             .load_payload()
             .context("reloading the applied payload")?;
         let tare = store.load_tare().context("reloading the tare")?;
+        // Created (and checked) now so a bad `state.record_dir` stops the start, not a recording.
+        crate::recordings::RecordDir::open(&config.state.record_dir())?;
 
         let (ipc_thread, ipc) = if config.iceoryx2.enabled {
             let names = IpcNames {

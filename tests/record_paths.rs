@@ -138,3 +138,37 @@ async fn record_stays_inside_the_recording_directory() {
     refused(r, "existing file, samples");
     running.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn fri_ctl_record_prints_the_full_path_in_the_configured_directory() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut c = config(dir.path());
+    c.state.record_dir = Some(dir.path().join("rec"));
+    let running = start(c).await;
+    let socket = running.socket.clone();
+    let out = tokio::task::spawn_blocking(move || {
+        std::process::Command::new(env!("CARGO_BIN_EXE_fri-ctl"))
+            .args(["record", "ctl.csv", "--kind", "log", "--duration", "0.05"])
+            .arg("--socket")
+            .arg(&socket)
+            .output()
+            .unwrap()
+    })
+    .await
+    .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let full = dir
+        .path()
+        .join("rec")
+        .canonicalize()
+        .unwrap()
+        .join("ctl.csv");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let line = format!("rows to {}", full.display());
+    assert!(
+        stdout.starts_with("recorded ") && stdout.contains(&line),
+        "{stdout}"
+    );
+    assert!(full.exists());
+    running.stop().await;
+}

@@ -4,5 +4,6 @@
 pub mod cause;
 pub mod client;
 pub mod frame;
+mod overflow;
 pub mod protocol;
 pub mod server;

@@ -84,9 +84,11 @@ pub enum Command {
     Stop,
     /// Resume after a stop or a collision reaction.
     Resume,
-    /// Record to a CSV file.
+    /// Record to a new CSV file in the recording directory (`state.record_dir`).
     Record {
-        /// Output CSV path (written by the service).
+        /// File name in the recording directory: 1 to 255 characters of `A-Z a-z 0-9 . _ -`,
+        /// not starting with `.` or `-`, no `/`; an existing name is refused. The reply's
+        /// `path` is the full path.
         path: String,
         /// What to record.
         kind: RecordKind,
@@ -460,7 +462,7 @@ mod tests {
             r#"{"id":1,"cmd":"collision","action":"show"}"#,
             r#"{"id":1,"cmd":"stop"}"#,
             r#"{"id":1,"cmd":"resume"}"#,
-            r#"{"id":1,"cmd":"record","path":"/tmp/x.csv","kind":"log","duration_s":1}"#,
+            r#"{"id":1,"cmd":"record","path":"x.csv","kind":"log","duration_s":1}"#,
             r#"{"id":1,"cmd":"watch"}"#,
         ];
         assert_eq!(minimal.len(), Command::NAMES.len());

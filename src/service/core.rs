@@ -570,7 +570,8 @@ impl ServiceCore {
         Ok(json!({"stopped": false}))
     }
 
-    /// `record`: static samples or a per-cycle log, as CSV at `path`.
+    /// `record`: static samples or a per-cycle log, as CSV in a new file `path` of the
+    /// recording directory (`state.record_dir`, see [`crate::recordings`]).
     pub async fn record(
         &self,
         path: &str,
@@ -580,7 +581,19 @@ impl ServiceCore {
         events: &EventSink,
     ) -> Result<Value, OperatorError> {
         use crate::operator::protocol::RecordKind;
-        let io = |e: std::io::Error| err(ErrorCode::Failed, format!("cannot write {path}: {e}"));
+        use crate::recordings::{RecordDir, RecordError};
+        let refuse = |e: RecordError| {
+            let code = if e.is_request_error() {
+                ErrorCode::InvalidArguments
+            } else {
+                ErrorCode::Failed
+            };
+            err(code, e.to_string())
+        };
+        let dir = RecordDir::open(&self.config.state.record_dir()).map_err(refuse)?;
+        let full = dir.check_free(path).map_err(refuse)?;
+        let shown = full.to_string_lossy().into_owned();
+        let io = |e: std::io::Error| err(ErrorCode::Failed, format!("cannot write {shown}: {e}"));
         match kind {
             RecordKind::Samples => {
                 let n = count.unwrap_or(1);
@@ -606,8 +619,11 @@ impl ServiceCore {
                 for r in &rows {
                     text.push_str(&static_csv_row(r));
                 }
-                std::fs::write(path, text).map_err(io)?;
-                Ok(json!({"rows": rows.len(), "path": path}))
+                // Created only now, exclusively: the name may have been taken while sampling.
+                let (mut file, _) = dir.create(path).map_err(refuse)?;
+                use std::io::Write;
+                file.write_all(text.as_bytes()).map_err(io)?;
+                Ok(json!({"rows": rows.len(), "path": shown}))
             }
             RecordKind::Log => {
                 let d = duration_s.unwrap_or(1.0);
@@ -618,7 +634,7 @@ impl ServiceCore {
                     ));
                 }
                 let mut states = self.shared.subscribe_states();
-                let file = std::fs::File::create(path).map_err(io)?;
+                let (file, _) = dir.create(path).map_err(refuse)?;
                 let mut w = std::io::BufWriter::new(file);
                 use std::io::Write;
                 let mut header = String::from("cycle,time_s,flags");
@@ -659,7 +675,7 @@ impl ServiceCore {
                     rows += 1;
                 }
                 w.flush().map_err(io)?;
-                Ok(json!({"rows": rows, "path": path, "lost": lost}))
+                Ok(json!({"rows": rows, "path": shown, "lost": lost}))
             }
         }
     }

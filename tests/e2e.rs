@@ -165,8 +165,17 @@ async fn tare_then_estimate_through_the_socket_and_persist_after_restart() {
     // on, and the estimate's noise is independent of the tare's.
     let mut robot = driver.stop().unwrap();
     robot.set_payload_attached(true);
+    let before = call(&mut c, Command::Status).await.unwrap()["cycle"].as_u64();
     let driver = MockDriver::resume(robot, h.fri, lockstep()).unwrap();
-    tokio::time::sleep(Duration::from_millis(300)).await;
+    // A new controller socket: the service re-binds once the old source was silent for the
+    // session's resync time (docs/fri.md); wait for a state from the new one.
+    for _ in 0..1000 {
+        let s = call(&mut c, Command::Status).await.unwrap();
+        if s["connected"] == true && s["cycle"].as_u64() > before {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
     let est = call(
         &mut c,
         Command::EstimatePayload {

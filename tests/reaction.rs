@@ -10,6 +10,7 @@ use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 
 use dynamics::{Data, Model, compute_generalized_gravity, payload_gravity_regressor};
 use fri::handshake::{HandshakeRequest, HandshakeStatus};
+use fri::session::Arrival;
 use fri::wire::{InterfaceState, Measurement, Quality};
 use fri_service::config::{Config, ReactionPolicy};
 use fri_service::motion::MotionLimits;
@@ -37,6 +38,8 @@ struct Rig {
     data: Data<7>,
     q: V7,
     seq: u16,
+    /// Sequence number of the previous measurement.
+    previous_seq: Option<u16>,
     /// Payload really carried by the arm.
     carried: bool,
     /// External torque applied to the arm, Nm.
@@ -79,6 +82,7 @@ impl Rig {
             model,
             q: V7::from(PICK),
             seq: 100,
+            previous_seq: None,
             carried: false,
             external: V7::zeros(),
             braking: None,
@@ -120,8 +124,19 @@ impl Rig {
     /// One cycle; the arm follows the set-point exactly. Returns the cycle's events.
     fn cycle(&mut self) -> Vec<RtEvent> {
         let m = self.measurement();
+        // How a session places it: a jump back or beyond the window is a restart.
+        let arrival = match self.previous_seq.replace(self.seq) {
+            None => Arrival::First,
+            Some(p) => match self.seq.wrapping_sub(p) {
+                d @ 1..=1000 => Arrival::Continued {
+                    cycles: u32::from(d),
+                },
+                _ => Arrival::Restart,
+            },
+        };
         let (desired, _) = self.processor.on_measurement(
             &m,
+            arrival,
             HandshakeStatus::NOT_REPORTED,
             HandshakeRequest::NONE,
         );

@@ -10,8 +10,10 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::bounds::{self, Range};
+
 /// Number of joints of the supported arm (KUKA LWR 4+).
-pub const JOINTS: usize = 7;
+pub const JOINTS: usize = bounds::JOINTS;
 
 /// Default operator socket path, shared by `fri-service` and `fri-ctl --socket`.
 pub const DEFAULT_SOCKET: &str = "/tmp/fri-service/operator.sock";
@@ -77,6 +79,12 @@ pub struct FriConfig {
     pub bind: SocketAddr,
     /// Only accept datagrams from this controller IP address (default: any).
     pub controller: Option<IpAddr>,
+    /// Only accept datagrams from this controller UDP port, 1–65535 (default: any; the KRC
+    /// sends from its `FRISOCK` port, 49938).
+    pub controller_port: Option<u16>,
+    /// Silence of the bound controller after which a restart (any counter) or a new source
+    /// within the filter is accepted, s (default 1; max(0.01, 10 × cycle_s) to 10).
+    pub resync_after_s: f64,
     /// Expected controller cycle, s (default 0.001; FRI allows 0.001–0.1).
     pub cycle_s: f64,
     /// Largest joint set-point change per cycle in command mode, rad (default 2e-4, well under
@@ -89,6 +97,8 @@ impl Default for FriConfig {
         Self {
             bind: SocketAddr::from(([0, 0, 0, 0], 49938)),
             controller: None,
+            controller_port: None,
+            resync_after_s: 1.0,
             cycle_s: 0.001,
             max_joint_step: 2.0e-4,
         }
@@ -175,6 +185,9 @@ pub struct MotionConfig {
     pub max_acceleration: [f64; JOINTS],
     /// Maximum joint jerk per joint, rad/s³ (default 5.0).
     pub max_jerk: [f64; JOINTS],
+    /// Largest distance of a pattern centre (`around`) from the measured pose, per joint, rad
+    /// (default 0.5; 0.01 to 1).
+    pub max_around_distance_rad: f64,
 }
 
 impl Default for MotionConfig {
@@ -183,6 +196,7 @@ impl Default for MotionConfig {
             max_velocity: [0.18; JOINTS],
             max_acceleration: [1.0; JOINTS],
             max_jerk: [5.0; JOINTS],
+            max_around_distance_rad: 0.5,
         }
     }
 }
@@ -332,83 +346,144 @@ impl Config {
         Ok(config)
     }
 
-    /// Checks every value's range; the error names the first bad key and why.
+    /// Checks every value's range; the error names the first bad key, its value and the range.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        let c = &self.fri.cycle_s;
-        check(
-            "fri.cycle_s",
-            c.is_finite() && (0.001..=0.1).contains(c),
-            "must be between 0.001 and 0.1 s",
+        let f = &self.fri;
+        in_range("fri.cycle_s", f.cycle_s, bounds::CYCLE_S)?;
+        let cycle = f.cycle_s;
+        if let Some(port) = f.controller_port {
+            check(
+                "fri.controller_port",
+                port != 0,
+                "0 is not a port; must be 1…65535",
+            )?;
+        }
+        // A resync shorter than a few cycles would take every lost datagram for a restart; a
+        // longer one than 10 s leaves a restarted controller unanswered for too long.
+        in_range(
+            "fri.resync_after_s",
+            f.resync_after_s,
+            Range::new((10.0 * cycle).max(0.01), 10.0, "s"),
         )?;
+        // The LWR's slowest joint limit is 1.92 rad/s; the controller treats a larger step per
+        // cycle as a set-point jump.
+        in_range(
+            "fri.max_joint_step",
+            f.max_joint_step,
+            Range::new(1e-6, 1.5 * cycle, "rad"),
+        )
+        .map_err(|e| with_note(e, "the upper bound is 1.5 rad/s × fri.cycle_s"))?;
         check(
             "robot.model",
             self.robot.model == "lwr4",
             "only the built-in `lwr4` model is supported by the service",
         )?;
-        positive_all("observer.gains", &self.observer.gains)?;
-        positive_all("observer.thresholds", &self.observer.thresholds)?;
-        let p = self.reaction.pause_s;
-        check(
+        let o = &self.observer;
+        for j in 0..JOINTS {
+            in_range_at("observer.gains", j, o.gains[j], bounds::gain(cycle))
+                .map_err(|e| with_note(e, "the upper bound is 2 / fri.cycle_s"))?;
+        }
+        for j in 0..JOINTS {
+            in_range_at(
+                "observer.thresholds",
+                j,
+                o.thresholds[j],
+                bounds::threshold(j),
+            )
+            .map_err(|e| {
+                with_note(
+                    e,
+                    "the upper bound is a quarter of the joint's torque limit",
+                )
+            })?;
+        }
+        in_range(
             "reaction.pause_s",
-            p.is_finite() && (0.0..=60.0).contains(&p),
-            "must be between 0 and 60 s",
+            self.reaction.pause_s,
+            Range::new(0.0, 60.0, "s"),
         )?;
-        positive_all("motion.max_velocity", &self.motion.max_velocity)?;
-        positive_all("motion.max_acceleration", &self.motion.max_acceleration)?;
-        positive_all("motion.max_jerk", &self.motion.max_jerk)?;
-        // The LWR's slowest joint limit is 1.92 rad/s; the controller treats a larger step per
-        // cycle as a set-point jump.
-        let s = self.fri.max_joint_step;
-        check(
-            "fri.max_joint_step",
-            s.is_finite() && s > 0.0 && s <= 1.5 * self.fri.cycle_s,
-            "must be in (0, 1.5 rad/s × fri.cycle_s]",
-        )?;
-        for (i, v) in self.motion.max_velocity.iter().enumerate() {
-            check_at(
+        let m = &self.motion;
+        for j in 0..JOINTS {
+            // At most the joint's rated speed and the speed the set-point step limit allows.
+            let top = bounds::rated_speed(j).min(f.max_joint_step / cycle * (1.0 + 1e-9));
+            in_range_at(
                 "motion.max_velocity",
-                i,
-                *v * self.fri.cycle_s <= s * (1.0 + 1e-9),
-                "times fri.cycle_s must not exceed fri.max_joint_step (the set-point step limit)",
+                j,
+                m.max_velocity[j],
+                Range::new(0.01, top, "rad/s"),
+            )
+            .map_err(|e| {
+                with_note(
+                    e,
+                    "the upper bound is the joint's rated speed and fri.max_joint_step / fri.cycle_s",
+                )
+            })?;
+            in_range_at(
+                "motion.max_acceleration",
+                j,
+                m.max_acceleration[j],
+                Range::new(0.01, 10.0, "rad/s²"),
+            )?;
+            in_range_at(
+                "motion.max_jerk",
+                j,
+                m.max_jerk[j],
+                Range::new(0.1, 1000.0, "rad/s³"),
             )?;
         }
+        in_range(
+            "motion.max_around_distance_rad",
+            m.max_around_distance_rad,
+            bounds::MAX_AROUND_DISTANCE_RAD,
+        )?;
         let e = &self.estimation;
-        positive("estimation.settle_velocity", e.settle_velocity)?;
-        positive("estimation.settle_torque_std", e.settle_torque_std)?;
-        positive("estimation.settle_window_s", e.settle_window_s)?;
-        positive("estimation.settle_timeout_s", e.settle_timeout_s)?;
-        check(
+        in_range(
+            "estimation.settle_velocity",
+            e.settle_velocity,
+            Range::new(1e-4, 0.1, "rad/s"),
+        )?;
+        in_range(
+            "estimation.settle_torque_std",
+            e.settle_torque_std,
+            Range::new(1e-3, 5.0, "Nm"),
+        )?;
+        in_range(
+            "estimation.settle_timeout_s",
+            e.settle_timeout_s,
+            Range::new(0.01, 60.0, "s"),
+        )?;
+        in_range(
             "estimation.settle_window_s",
-            e.settle_window_s <= e.settle_timeout_s,
-            "must not exceed estimation.settle_timeout_s",
+            e.settle_window_s,
+            Range::new(cycle, e.settle_timeout_s.max(cycle), "s"),
+        )
+        .map_err(|err| with_note(err, "from fri.cycle_s up to estimation.settle_timeout_s"))?;
+        in_range(
+            "estimation.average_s",
+            e.average_s,
+            Range::new(cycle, 60.0, "s"),
         )?;
-        positive("estimation.average_s", e.average_s)?;
-        check(
+        in_range(
             "estimation.pattern_step_deg",
-            e.pattern_step_deg.is_finite()
-                && e.pattern_step_deg > 0.0
-                && e.pattern_step_deg <= 30.0,
-            "must be in (0, 30] degrees",
+            e.pattern_step_deg,
+            bounds::STEP_DEG,
         )?;
-        check(
-            "estimation.pattern_poses",
-            (2..=100).contains(&e.pattern_poses),
-            "must be between 2 and 100",
-        )?;
+        count_in_range("estimation.pattern_poses", e.pattern_poses, bounds::POSES)?;
         check(
             "operator.socket",
             !self.operator.socket.as_os_str().is_empty(),
             "must not be empty",
         )?;
-        check(
+        let op = &self.operator;
+        count_in_range(
             "operator.max_line_bytes",
-            (256..=16 * 1024 * 1024).contains(&self.operator.max_line_bytes),
-            "must be between 256 and 16777216 bytes",
+            op.max_line_bytes,
+            Range::new(256.0, 16.0 * 1024.0 * 1024.0, "bytes"),
         )?;
-        check(
+        count_in_range(
             "operator.max_clients",
-            (1..=4096).contains(&self.operator.max_clients),
-            "must be between 1 and 4096",
+            op.max_clients,
+            Range::new(1.0, 4096.0, ""),
         )?;
         let idle = self.operator.idle_timeout_s;
         check(
@@ -416,6 +491,9 @@ impl Config {
             idle.is_finite() && (1.0..=3600.0).contains(&idle),
             "must be between 1 and 3600 s",
         )?;
+        let ids = Range::new(0.0, MAX_ALLOWED_IDS as f64, "entries");
+        count_in_range("operator.allowed_uids", op.allowed_uids.len(), ids)?;
+        count_in_range("operator.allowed_gids", op.allowed_gids.len(), ids)?;
         check(
             "state.dir",
             !self.state.dir.as_os_str().is_empty(),
@@ -455,6 +533,9 @@ impl Config {
     }
 }
 
+/// Most entries of `operator.allowed_uids` and `operator.allowed_gids` each.
+pub const MAX_ALLOWED_IDS: usize = 256;
+
 fn check(key: &str, ok: bool, reason: &str) -> Result<(), ConfigError> {
     if ok {
         Ok(())
@@ -466,33 +547,48 @@ fn check(key: &str, ok: bool, reason: &str) -> Result<(), ConfigError> {
     }
 }
 
-fn check_at(key: &str, index: usize, ok: bool, reason: &str) -> Result<(), ConfigError> {
-    // Joints are numbered 1..n for people.
-    check(
-        &format!("{key}[{}] (joint {})", index, index + 1),
-        ok,
-        reason,
-    )
+/// The key of element `index` of an array key: joints are numbered 1..n for people.
+fn key_at(key: &str, index: usize) -> String {
+    format!("{key}[{index}] (joint {})", index + 1)
 }
 
-fn positive(key: &str, value: f64) -> Result<(), ConfigError> {
-    check(
-        key,
-        value.is_finite() && value > 0.0,
-        "must be a positive finite number",
-    )
+fn invalid(key: String, reason: String) -> ConfigError {
+    ConfigError::Invalid { key, reason }
 }
 
-fn positive_all(key: &str, values: &[f64]) -> Result<(), ConfigError> {
-    for (i, v) in values.iter().enumerate() {
-        check_at(
+/// `value` of `key` inside `range`; the reason reads "v unit is outside min…max unit".
+fn in_range(key: &str, value: f64, range: Range) -> Result<(), ConfigError> {
+    range
+        .check("", value)
+        .map_err(|e| invalid(key.to_owned(), reason(&e)))
+}
+
+fn in_range_at(key: &str, index: usize, value: f64, range: Range) -> Result<(), ConfigError> {
+    range
+        .check("", value)
+        .map_err(|e| invalid(key_at(key, index), reason(&e)))
+}
+
+fn count_in_range(key: &str, value: usize, range: Range) -> Result<(), ConfigError> {
+    range
+        .check_count("", value as u64)
+        .map_err(|e| invalid(key.to_owned(), reason(&e)))
+}
+
+/// `Range::check` with an empty name gives " = v is outside …"; the key is shown separately.
+fn reason(message: &str) -> String {
+    message.trim_start_matches(" = ").to_owned()
+}
+
+/// Appends why the range is what it is.
+fn with_note(e: ConfigError, note: &str) -> ConfigError {
+    match e {
+        ConfigError::Invalid { key, reason } => ConfigError::Invalid {
             key,
-            i,
-            v.is_finite() && *v > 0.0,
-            "must be a positive finite number",
-        )?;
+            reason: format!("{reason} ({note})"),
+        },
+        other => other,
     }
-    Ok(())
 }
 
 #[cfg(test)]
@@ -586,6 +682,164 @@ mod tests {
             invalid_key("[iceoryx2]\nglobal_prefix = \"a b\"\n"),
             "iceoryx2.global_prefix"
         );
+    }
+
+    fn invalid(text: &str) -> (String, String) {
+        match Config::from_toml(text) {
+            Err(ConfigError::Invalid { key, reason }) => (key, reason),
+            other => panic!("expected Invalid for {text:?}, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn every_numeric_key_out_of_range_is_rejected_naming_the_key_and_range() {
+        let seven = |v: &str| format!("[{v}, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0]");
+        let cases = [
+            (
+                "[fri]\ncycle_s = 1e300\n".to_owned(),
+                "fri.cycle_s",
+                "0.001…0.1 s",
+            ),
+            (
+                "[fri]\ncontroller_port = 0\n".to_owned(),
+                "fri.controller_port",
+                "1…65535",
+            ),
+            (
+                "[fri]\nresync_after_s = 0.001\n".to_owned(),
+                "fri.resync_after_s",
+                "0.01…10 s",
+            ),
+            (
+                "[fri]\nmax_joint_step = 1e300\n".to_owned(),
+                "fri.max_joint_step",
+                "1e-6…0.0015 rad",
+            ),
+            (
+                format!("[observer]\ngains = {}\n", seven("1e308")),
+                "observer.gains[0] (joint 1)",
+                "1e308 1/s is outside 1…2000 1/s",
+            ),
+            (
+                "[observer]\nthresholds = [6.0, 6.0, 6.0, 1e300, 6.0, 6.0, 6.0]\n".to_owned(),
+                "observer.thresholds[3] (joint 4)",
+                "1e300 Nm is outside 0.1…25 Nm",
+            ),
+            (
+                "[observer]\nthresholds = [6.0, 6.0, 6.0, 6.0, 6.0, 6.0, 0.05]\n".to_owned(),
+                "observer.thresholds[6] (joint 7)",
+                "0.05 Nm is outside 0.1…9.5 Nm",
+            ),
+            (
+                "[reaction]\npause_s = 1e300\n".to_owned(),
+                "reaction.pause_s",
+                "0…60 s",
+            ),
+            (
+                format!("[motion]\nmax_velocity = {}\n", seven("0.001")),
+                "motion.max_velocity[0] (joint 1)",
+                "0.001 rad/s is outside 0.01…0.2 rad/s",
+            ),
+            (
+                format!("[motion]\nmax_acceleration = {}\n", seven("1e9")),
+                "motion.max_acceleration[0] (joint 1)",
+                "0.01…10 rad/s²",
+            ),
+            (
+                format!("[motion]\nmax_jerk = {}\n", seven("1e9")),
+                "motion.max_jerk[0] (joint 1)",
+                "0.1…1000 rad/s³",
+            ),
+            (
+                "[motion]\nmax_around_distance_rad = 1e300\n".to_owned(),
+                "motion.max_around_distance_rad",
+                "0.01…1 rad",
+            ),
+            (
+                "[estimation]\nsettle_velocity = 1e300\n".to_owned(),
+                "estimation.settle_velocity",
+                "0.0001…0.1 rad/s",
+            ),
+            (
+                "[estimation]\nsettle_torque_std = 1e300\n".to_owned(),
+                "estimation.settle_torque_std",
+                "0.001…5 Nm",
+            ),
+            (
+                "[estimation]\nsettle_timeout_s = 1e300\n".to_owned(),
+                "estimation.settle_timeout_s",
+                "0.01…60 s",
+            ),
+            (
+                "[estimation]\nsettle_window_s = 0.0\n".to_owned(),
+                "estimation.settle_window_s",
+                "0.001…1 s",
+            ),
+            (
+                "[estimation]\naverage_s = 1e300\n".to_owned(),
+                "estimation.average_s",
+                "0.001…60 s",
+            ),
+            (
+                "[estimation]\npattern_step_deg = 0.5\n".to_owned(),
+                "estimation.pattern_step_deg",
+                "1…30 deg",
+            ),
+            (
+                "[estimation]\npattern_poses = 1000\n".to_owned(),
+                "estimation.pattern_poses",
+                "2…100",
+            ),
+            (
+                "[operator]\nmax_line_bytes = 10\n".to_owned(),
+                "operator.max_line_bytes",
+                "256…16777216 bytes",
+            ),
+            (
+                "[operator]\nmax_clients = 0\n".to_owned(),
+                "operator.max_clients",
+                "1…4096",
+            ),
+            (
+                format!("[operator]\nallowed_uids = {:?}\n", vec![1000u32; 300]),
+                "operator.allowed_uids",
+                "0…256 entries",
+            ),
+            (
+                format!("[operator]\nallowed_gids = {:?}\n", vec![1000u32; 300]),
+                "operator.allowed_gids",
+                "0…256 entries",
+            ),
+        ];
+        for (text, key, range) in cases {
+            let (k, reason) = invalid(&text);
+            assert_eq!(k, key, "{text}");
+            assert!(reason.contains(range), "{text}: {reason}");
+            assert!(
+                reason.contains("is outside") || key == "fri.controller_port",
+                "{reason}"
+            );
+        }
+    }
+
+    #[test]
+    fn ranges_follow_the_configured_cycle() {
+        // At 10 ms the gain limit is 200 1/s and the resync floor 0.1 s.
+        let (k, reason) = invalid(
+            "[fri]\ncycle_s = 0.01\nmax_joint_step = 0.002\n[motion]\nmax_velocity = \
+             [0.18, 0.18, 0.18, 0.18, 0.18, 0.18, 0.18]\n[observer]\ngains = \
+             [400.0, 100.0, 100.0, 100.0, 100.0, 100.0, 100.0]\n",
+        );
+        assert_eq!(k, "observer.gains[0] (joint 1)");
+        assert!(reason.contains("1…200 1/s"), "{reason}");
+        let (k, _) =
+            invalid("[fri]\ncycle_s = 0.01\nmax_joint_step = 0.002\nresync_after_s = 0.05\n");
+        assert_eq!(k, "fri.resync_after_s");
+        let ok = Config::from_toml(
+            "[fri]\ncontroller_port = 49938\nresync_after_s = 0.1\n[motion]\nmax_around_distance_rad = 0.2\n",
+        )
+        .unwrap();
+        assert_eq!(ok.fri.controller_port, Some(49938));
     }
 
     #[test]

@@ -4,6 +4,7 @@
 //! and server, persistence of the applied payload / tare / calibration, the recording directory, jerk-limited commanded
 //! moves, iceoryx2 publication, the 1 kHz loop hook and the operator workflows.
 
+pub mod bounds;
 pub mod config;
 pub mod ctl;
 pub mod demo;

@@ -165,17 +165,21 @@ async fn tare_then_estimate_through_the_socket_and_persist_after_restart() {
     // on, and the estimate's noise is independent of the tare's.
     let mut robot = driver.stop().unwrap();
     robot.set_payload_attached(true);
-    let before = call(&mut c, Command::Status).await.unwrap()["cycle"].as_u64();
     let driver = MockDriver::resume(robot, h.fri, lockstep()).unwrap();
-    // A new controller socket: the service re-binds once the old source was silent for the
-    // session's resync time (docs/fri.md); wait for a state from the new one.
-    for _ in 0..1000 {
-        let s = call(&mut c, Command::Status).await.unwrap();
-        if s["connected"] == true && s["cycle"].as_u64() > before {
+    // The resumed controller sends from a new port: the service binds it once the old one has
+    // been silent for `fri.resync_after_s` (docs/fri.md, "Source binding and restarts").
+    for _ in 0..500 {
+        if driver.stats().answered > 50 {
             break;
         }
         tokio::time::sleep(Duration::from_millis(10)).await;
     }
+    assert!(driver.stats().answered > 50, "{:?}", driver.stats());
+    let status = call(&mut c, Command::Status).await.unwrap();
+    assert_eq!(
+        status["fri"]["statistics"]["sequence"]["rebinds"], 1,
+        "{status}"
+    );
     let est = call(
         &mut c,
         Command::EstimatePayload {
@@ -411,6 +415,84 @@ async fn malformed_operator_input_never_disturbs_the_loop() {
     assert!(status["cycle"].as_u64().unwrap() > before);
     assert!(status["payload"].is_null());
     assert_eq!(status["monitor"]["thresholds"][6], 6.0);
+    drop(driver.stop());
+    h.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn unbounded_pattern_centres_thresholds_and_gains_are_rejected_and_nothing_moves() {
+    use fri_service::operator::protocol::{CollisionAction, ErrorCode};
+    let dir = tempfile::tempdir().unwrap();
+    let config = test_config(dir.path());
+    let h = Harness::start(config, dir).await;
+    let driver = MockDriver::spawn(sim(false, 17), h.fri, lockstep()).unwrap();
+    let mut c = h.client().await;
+    let q: Vec<f64> = wait_connected(&mut c).await["q"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    let q: [f64; 7] = q.try_into().unwrap();
+    let estimate = |around: [f64; 7]| Command::EstimatePayload {
+        around: Some(around),
+        poses: Some(3),
+        step_deg: Some(7.0),
+        pattern: None,
+        use_tare: None,
+        apply: Some(true),
+    };
+    // Inside the joint limits but 0.6 rad from the measured pose on joint 4.
+    let mut far = q;
+    far[3] += 0.6;
+    // Inside the limits and near enough, but joint 2 within 7° + 5° of its 120° limit.
+    let mut near_limit = q;
+    near_limit[1] = 115f64.to_radians();
+    let configure = |thresholds, gains| Command::Collision {
+        action: CollisionAction::Configure,
+        thresholds,
+        gains,
+    };
+    let cases = [
+        (estimate([1e300; 7]), "around[0] = 1e300 rad is outside"),
+        (estimate(far), "around[3]"),
+        (
+            Command::Tare {
+                around: Some(near_limit),
+                poses: Some(3),
+                step_deg: Some(7.0),
+                pattern: None,
+            },
+            "around[1]",
+        ),
+        (
+            configure(Some([1e300; 7]), None),
+            "thresholds[0] = 1e300 Nm",
+        ),
+        (configure(None, Some([1e308; 7])), "gains[0] = 1e308 1/s"),
+    ];
+    for (command, expected) in cases {
+        let e = call(&mut c, command).await.unwrap_err();
+        assert_eq!(e.code, ErrorCode::InvalidArguments, "{e:?}");
+        assert!(e.message.starts_with(expected), "{}", e.message);
+    }
+    let e = call(&mut c, estimate(far)).await.unwrap_err();
+    assert!(
+        e.message
+            .contains("motion.max_around_distance_rad = 0.5 rad"),
+        "{}",
+        e.message
+    );
+    // The monitor is unchanged and armed with its finite thresholds; the arm did not move.
+    let status = call(&mut c, Command::Status).await.unwrap();
+    assert_eq!(status["monitor"]["armed"], true);
+    assert_eq!(status["monitor"]["thresholds"][0], 6.0);
+    assert_eq!(status["monitor"]["gains"][0], 400.0);
+    assert_eq!(status["command_mode"], false, "{status}");
+    for j in 0..7 {
+        let now = status["q"][j].as_f64().unwrap();
+        assert!((now - q[j]).abs() < 1e-3, "joint {j}: {now} vs {}", q[j]);
+    }
     drop(driver.stop());
     h.stop().await;
 }

@@ -190,6 +190,50 @@ async fn malformed_unknown_and_oversized_lines_get_errors_and_connection_survive
 }
 
 #[tokio::test]
+async fn out_of_range_arguments_are_rejected_before_any_handler_runs() {
+    // Issue 10 item 4: these used to be accepted (and clamped, or silently disabled detection).
+    let (_dir, path, _tx) = start(ServerLimits::default()).await;
+    let mut c = Client::connect(&path).await.unwrap();
+    let cases = [
+        (
+            Command::EstimatePayload {
+                around: Some([1e300; 7]),
+                poses: None,
+                step_deg: None,
+                pattern: None,
+                use_tare: None,
+                apply: Some(true),
+            },
+            "around[0] = 1e300 rad is outside",
+        ),
+        (
+            Command::Collision {
+                action: fri_service::operator::protocol::CollisionAction::Configure,
+                thresholds: Some([1e300; 7]),
+                gains: None,
+            },
+            "thresholds[0] = 1e300 Nm is outside 0.1…44 Nm",
+        ),
+        (
+            Command::Collision {
+                action: fri_service::operator::protocol::CollisionAction::Configure,
+                thresholds: None,
+                gains: Some([1e308; 7]),
+            },
+            "gains[0] = 1e308 1/s is outside 1…2000 1/s",
+        ),
+    ];
+    for (command, expected) in cases {
+        let e = c.call(command, |_, _| {}).await.unwrap().unwrap_err();
+        assert_eq!(e.code, ErrorCode::InvalidArguments, "{e:?}");
+        assert!(e.message.starts_with(expected), "{}", e.message);
+    }
+    // The handler never saw them: its call counter is still at 0.
+    let r = c.call(Command::Status, |_, _| {}).await.unwrap().unwrap();
+    assert_eq!(r, json!({"calls": 0}));
+}
+
+#[tokio::test]
 async fn half_closed_client_still_gets_its_reply() {
     let (_dir, path, _tx) = start(ServerLimits::default()).await;
     let mut stream = tokio::net::UnixStream::connect(&path).await.unwrap();

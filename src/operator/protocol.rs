@@ -343,6 +343,8 @@ pub fn parse_request(line: &[u8]) -> Result<Request, (Option<RequestId>, Operato
             ),
         ));
     }
+    // Ranges first: serde's messages name neither the field nor the allowed range.
+    super::arguments::check(&cmd, &map).map_err(|e| (Some(id), e))?;
     let keys: Vec<String> = map.keys().cloned().collect();
     let command: Command = serde_json::from_value(Value::Object(map)).map_err(|e| {
         (
@@ -448,6 +450,70 @@ mod tests {
             code(r#"{"id":2,"cmd":"collision","action":"explode"}"#),
             (Some(2), ErrorCode::InvalidArguments)
         );
+    }
+
+    #[test]
+    fn every_numeric_argument_out_of_range_is_rejected_naming_the_field_and_range() {
+        let cases = [
+            (
+                r#""cmd":"sample","duration_s":0"#,
+                "duration_s = 0 s is outside 0.001…60 s",
+            ),
+            (
+                r#""cmd":"tare","around":[0,0,0,0,0,0,1e300]"#,
+                "around[6] = 1e300 rad is outside",
+            ),
+            (
+                r#""cmd":"estimate-payload","around":[1e300,0,0,0,0,0,0]"#,
+                "around[0] = 1e300 rad is outside",
+            ),
+            (
+                r#""cmd":"tare","poses":1000"#,
+                "poses = 1000 is outside 2…100",
+            ),
+            (
+                r#""cmd":"estimate-payload","step_deg":-7"#,
+                "step_deg = -7 deg is outside 1…30 deg",
+            ),
+            (
+                r#""cmd":"apply-payload","mass":1e300,"com":[0,0,0]"#,
+                "mass = 1e300 kg is outside 0…20 kg",
+            ),
+            (
+                r#""cmd":"apply-payload","mass":1,"com":[0,0,5]"#,
+                "com[2] = 5 m is outside -1…1 m",
+            ),
+            (
+                r#""cmd":"collision","action":"configure","thresholds":[6,6,6,1e300,6,6,6]"#,
+                "thresholds[3] = 1e300 Nm is outside 0.1…25 Nm (joint 4)",
+            ),
+            (
+                r#""cmd":"collision","action":"configure","gains":[400,400,400,400,400,400,1e308]"#,
+                "gains[6] = 1e308 1/s is outside 1…2000 1/s (joint 7)",
+            ),
+            (
+                r#""cmd":"record","path":"/tmp/x","kind":"log","duration_s":1e9"#,
+                "duration_s = 1e9 s is outside 0.001…3600 s",
+            ),
+            (
+                r#""cmd":"record","path":"/tmp/x","kind":"samples","count":0"#,
+                "count = 0 is outside 1…1000",
+            ),
+            (
+                r#""cmd":"watch","state_every":1e12"#,
+                "state_every = 1e12 cycles is outside 1…100000 cycles",
+            ),
+        ];
+        for (args, expected) in cases {
+            let line = format!("{{\"id\":7,{args}}}");
+            let (id, e) = parse_request(line.as_bytes()).unwrap_err();
+            assert_eq!(
+                (id, e.code),
+                (Some(7), ErrorCode::InvalidArguments),
+                "{line}"
+            );
+            assert!(e.message.starts_with(expected), "{line}: {}", e.message);
+        }
     }
 
     #[test]

@@ -330,6 +330,14 @@ impl ServiceCore {
                 if let Some(x) = gains {
                     g = x;
                 }
+                // Named like the arguments; the gain bound follows the configured cycle.
+                let gain = crate::bounds::gain(self.config.fri.cycle_s);
+                for j in 0..7 {
+                    crate::bounds::threshold(j)
+                        .check(&format!("thresholds[{j}]"), t[j])
+                        .and_then(|()| gain.check(&format!("gains[{j}]"), g[j]))
+                        .map_err(|e| err(ErrorCode::InvalidArguments, e))?;
+                }
                 let mut config = self.config.clone();
                 config.observer.thresholds = t;
                 config.observer.gains = g;
@@ -364,16 +372,14 @@ impl ServiceCore {
         let around = around.unwrap_or(start_q);
         let count = poses.unwrap_or(self.config.estimation.pattern_poses);
         let step = step_deg.unwrap_or(self.config.estimation.pattern_step_deg);
-        let step_ok = step.is_finite() && step > 0.0 && step <= 30.0;
-        if !(2..=100).contains(&count) || !step_ok {
-            return Err(err(
-                ErrorCode::InvalidArguments,
-                "poses must be 2..100 and step_deg in (0, 30]",
-            ));
-        }
-        if around.iter().any(|x| !x.is_finite()) {
-            return Err(err(ErrorCode::InvalidArguments, "`around` must be finite"));
-        }
+        // The centre must keep the pattern inside the joint limits with a margin and lie near
+        // the measured pose (the protocol layer only knows the limits, not the pose).
+        let max_distance = self.config.motion.max_around_distance_rad;
+        crate::bounds::POSES
+            .check_count("poses", count as u64)
+            .and_then(|()| crate::bounds::STEP_DEG.check("step_deg", step))
+            .and_then(|()| crate::bounds::check_around(&around, &start_q, step, max_distance))
+            .map_err(|e| err(ErrorCode::InvalidArguments, e))?;
         let pattern = pattern_poses(kind, &self.model, &around, count, step).map_err(|e| {
             err(
                 ErrorCode::InvalidArguments,

@@ -19,6 +19,7 @@ pub mod settle;
 use std::net::SocketAddr;
 use std::sync::Arc;
 use std::sync::mpsc::sync_channel;
+use std::time::Duration;
 
 use anyhow::Context as _;
 use dynamics::Model;
@@ -129,6 +130,8 @@ impl RunningService {
         let mut ec = EndpointConfig::default();
         ec.socket.bind = config.fri.bind;
         ec.session.controller_ip = config.fri.controller;
+        ec.session.controller_port = config.fri.controller_port;
+        ec.session.resync_after = Duration::from_secs_f64(config.fri.resync_after_s);
         ec.session.max_joint_step = config.fri.max_joint_step;
         let endpoint =
             Arc::new(Endpoint::spawn(ec, processor).context("starting the FRI endpoint")?);

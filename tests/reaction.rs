@@ -5,6 +5,7 @@
 //! Safety rule under test: whenever the monitor is armed and a detection occurs, the configured
 //! reaction is executed (the arm is held), whatever happened before — including detections and
 //! faults while disarmed (issue 10, item 1).
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 
@@ -24,7 +25,15 @@ use safety::PayloadCompensation;
 type V7 = SVector<f64, 7>;
 
 /// The paper's pick pose, rad.
-const PICK: [f64; 7] = [0.0, 0.5236, 0.0, -1.0472, 0.0, 1.0472, 0.0];
+const PICK: [f64; 7] = [
+    0.0,
+    std::f64::consts::FRAC_PI_6,
+    0.0,
+    -std::f64::consts::FRAC_PI_3,
+    0.0,
+    std::f64::consts::FRAC_PI_3,
+    0.0,
+];
 
 /// A real payload at the flange: 3 kg, 0.12 m along z of frame 7.
 const PAYLOAD_KG: f64 = 3.0;

@@ -715,3 +715,118 @@ async fn no_residual_from_an_unsynchronised_observer_is_published() {
     drop(events);
     h.stop().await;
 }
+
+/// The documented workflow on the running service in real time: disarm, grasp (the
+/// uncompensated payload trips the detector, silently), apply the payload, arm; a contact during
+/// the next move stops the arm (issue 10, item 1: the reaction used to stay latched).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn disarm_grasp_apply_arm_and_a_contact_stops_the_arm() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut config = test_config(dir.path());
+    config.observer.armed = true;
+    config.reaction.policy = fri_service::config::ReactionPolicy::Stop;
+    // The default (paper-like) speeds: the applied payload compensates gravity only, so fast
+    // moves would show its inertia as residual (issue 14's subject, not this test's).
+    config.motion = Config::default().motion;
+    let h = Harness::start(config, dir).await;
+    let mut sim_config = sim(false, 23);
+    sim_config.payload.events = vec![mock_robot::config::PayloadEvent {
+        time_s: 1.0,
+        action: mock_robot::config::PayloadAction::Attach,
+    }];
+    sim_config.contacts = vec![mock_robot::contact::ContactSpec {
+        link: 4,
+        point_m: [0.0, 0.0, 0.0],
+        onset_s: 4.0,
+        profile: mock_robot::contact::ContactProfile::HalfSine {
+            peak_force_n: [0.0, 80.0, 0.0],
+            duration_s: 0.3,
+        },
+    }];
+    let (mass, com) = (sim_config.payload.mass_kg, sim_config.payload.com_m);
+    let driver = MockDriver::spawn(sim_config, h.fri, Pacing::RealTime).unwrap();
+    let mut c = h.client().await;
+    wait_connected(&mut c).await;
+    let events = collect_watch(h.client().await, None);
+    call(
+        &mut c,
+        Command::Collision {
+            action: fri_service::operator::protocol::CollisionAction::Disarm,
+            thresholds: None,
+            gains: None,
+        },
+    )
+    .await
+    .unwrap();
+    // The payload is picked up at 1 s: far over the 6 Nm threshold, uncompensated.
+    while driver.cycles() < 1500 {
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    // (A loaded host can pause the loop long enough for a monitor restart: its residual is
+    // `null` during the 50 ms warm-up.)
+    let mut status = call(&mut c, Command::Status).await.unwrap();
+    for _ in 0..100 {
+        if status["residual"][1].is_f64() {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+        status = call(&mut c, Command::Status).await.unwrap();
+    }
+    let r2 = status["residual"][1].as_f64().unwrap_or(0.0);
+    assert!(r2.abs() > 6.0, "the uncompensated payload shows: {status}");
+    assert_eq!(status["stopped"], false, "disarmed: nothing holds the arm");
+    call(&mut c, Command::ApplyPayload { mass, com })
+        .await
+        .unwrap();
+    tokio::time::sleep(Duration::from_millis(50)).await;
+    call(
+        &mut c,
+        Command::Collision {
+            action: fri_service::operator::protocol::CollisionAction::Arm,
+            thresholds: None,
+            gains: None,
+        },
+    )
+    .await
+    .unwrap();
+    let e = call(
+        &mut c,
+        Command::EstimatePayload {
+            around: None,
+            poses: Some(6),
+            step_deg: Some(7.0),
+            pattern: None,
+            use_tare: Some(false),
+            apply: Some(false),
+        },
+    )
+    .await
+    .unwrap_err();
+    assert!(
+        matches!(
+            e.cause.as_deref(),
+            Some(fri_service::operator::cause::Cause::Collision { .. })
+        ),
+        "{e:?}"
+    );
+    let status = call(&mut c, Command::Status).await.unwrap();
+    assert_eq!(status["stopped"], true, "the arm is held: {status}");
+    {
+        let evs = events.lock().unwrap();
+        let collisions: Vec<f64> = evs
+            .iter()
+            .filter(|(k, _)| k == "collision")
+            .map(|(_, d)| d["time_s"].as_f64().unwrap())
+            .collect();
+        assert!(
+            !collisions.is_empty() && collisions.iter().all(|t| *t > 3.9),
+            "only the contact is a collision: {collisions:?}"
+        );
+        assert!(
+            evs.iter()
+                .any(|(k, d)| k == "stopped" && d["reason"] == "collision")
+        );
+    }
+    drop(driver.stop());
+    h.stop().await;
+}

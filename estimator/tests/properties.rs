@@ -53,7 +53,9 @@ proptest! {
         let a = estimate(&model, &s, &EstimateOptions::default()).unwrap();
         s.reverse();
         let b = estimate(&model, &s, &EstimateOptions::default()).unwrap();
-        prop_assert!((a.mass - b.mass).abs() < 1e-10);
+        // Equal up to rounding, which the least-squares solve amplifies by its condition number:
+        // random poses over ±1.9 rad reach ~3e-11 relative (seen: 1.2e-10 kg at 4.1 kg).
+        prop_assert!((a.mass - b.mass).abs() < 1e-9 * m.max(1.0), "{} vs {}", a.mass, b.mass);
         prop_assert!((a.mass_std - b.mass_std).abs() < 1e-10);
         let s0 = static_samples(&model, &payload, &model, &q, |_, _| 0.0);
         let c = estimate(&model, &s0, &EstimateOptions { method: Method::Coefficients, ..Default::default() }).unwrap();

@@ -110,7 +110,7 @@ fn main() -> anyhow::Result<()> {
         }
     };
     println!(
-        "{} s real time, {}: sent {}, answered in time {}, missed {} (no answer {}, late {}) → answer rate {:.4} %",
+        "{} s real time, {}: sent {}, answered in time {}, missed (no answer before the next measurement) {} → answer rate {:.4} %",
         seconds,
         if command_mode {
             "command mode moves"
@@ -118,11 +118,9 @@ fn main() -> anyhow::Result<()> {
             "monitor mode"
         },
         stats.sent,
-        stats.answered - stats.late,
-        stats.missed + stats.late,
+        stats.answered,
         stats.missed,
-        stats.late,
-        100.0 * (stats.answered - stats.late) as f64 / stats.sent.max(1) as f64
+        100.0 * stats.answered as f64 / stats.sent.max(1) as f64
     );
     println!(
         "round trip (measurement sent → answer received): median {:.1} µs, p99 {:.1} µs, p99.9 {:.1} µs, max {:.1} µs; jitter (mean |Δ|) {:.1} µs",

@@ -250,6 +250,9 @@ pub struct OperatorConfig {
     pub max_line_bytes: usize,
     /// Most simultaneous clients (default 64).
     pub max_clients: usize,
+    /// A connection with no request in flight that sends nothing for this long is closed, s
+    /// (default 30; 1 to 3600).
+    pub idle_timeout_s: f64,
 }
 
 impl Default for OperatorConfig {
@@ -260,6 +263,7 @@ impl Default for OperatorConfig {
             allowed_gids: Vec::new(),
             max_line_bytes: 65536,
             max_clients: 64,
+            idle_timeout_s: 30.0,
         }
     }
 }
@@ -270,13 +274,26 @@ impl Default for OperatorConfig {
 pub struct StateConfig {
     /// Directory for applied payload, tare and calibration (default `/tmp/fri-service/state`).
     pub dir: PathBuf,
+    /// The only directory `record` writes to (default: `recordings` inside `dir`); requests
+    /// name a new file in it.
+    pub record_dir: Option<PathBuf>,
 }
 
 impl Default for StateConfig {
     fn default() -> Self {
         Self {
             dir: PathBuf::from("/tmp/fri-service/state"),
+            record_dir: None,
         }
+    }
+}
+
+impl StateConfig {
+    /// The recording directory: `record_dir`, or `recordings` inside `dir`.
+    pub fn record_dir(&self) -> PathBuf {
+        self.record_dir
+            .clone()
+            .unwrap_or_else(|| self.dir.join("recordings"))
     }
 }
 
@@ -468,6 +485,11 @@ impl Config {
             op.max_clients,
             Range::new(1.0, 4096.0, ""),
         )?;
+        in_range(
+            "operator.idle_timeout_s",
+            op.idle_timeout_s,
+            Range::new(1.0, 3600.0, "s"),
+        )?;
         let ids = Range::new(0.0, MAX_ALLOWED_IDS as f64, "entries");
         count_in_range("operator.allowed_uids", op.allowed_uids.len(), ids)?;
         count_in_range("operator.allowed_gids", op.allowed_gids.len(), ids)?;
@@ -475,6 +497,14 @@ impl Config {
             "state.dir",
             !self.state.dir.as_os_str().is_empty(),
             "must not be empty",
+        )?;
+        check(
+            "state.record_dir",
+            self.state
+                .record_dir
+                .as_ref()
+                .is_none_or(|d| !d.as_os_str().is_empty()),
+            "must not be empty (leave it out for `recordings` inside state.dir)",
         )?;
         check(
             "iceoryx2.service_prefix",
@@ -580,6 +610,17 @@ mod tests {
         assert_eq!(c.reaction.policy, ReactionPolicy::Stop);
         assert_eq!(c.estimation.settle_timeout_s, 1.0);
         assert_eq!(c.operator.socket, PathBuf::from(DEFAULT_SOCKET));
+        assert_eq!(
+            c.state.record_dir(),
+            PathBuf::from("/tmp/fri-service/state/recordings")
+        );
+        let c = Config::from_toml("[state]\ndir = \"/var/lib/fri\"\n").unwrap();
+        assert_eq!(
+            c.state.record_dir(),
+            PathBuf::from("/var/lib/fri/recordings")
+        );
+        let c = Config::from_toml("[state]\nrecord_dir = \"/data/rec\"\n").unwrap();
+        assert_eq!(c.state.record_dir(), PathBuf::from("/data/rec"));
     }
 
     #[test]
@@ -623,6 +664,18 @@ mod tests {
         assert_eq!(
             invalid_key("[operator]\nmax_line_bytes = 10\n"),
             "operator.max_line_bytes"
+        );
+        assert_eq!(
+            invalid_key("[state]\nrecord_dir = \"\"\n"),
+            "state.record_dir"
+        );
+        assert_eq!(
+            invalid_key("[operator]\nidle_timeout_s = 0.5\n"),
+            "operator.idle_timeout_s"
+        );
+        assert_eq!(
+            invalid_key("[operator]\nidle_timeout_s = nan\n"),
+            "operator.idle_timeout_s"
         );
         assert_eq!(
             invalid_key("[iceoryx2]\nglobal_prefix = \"a b\"\n"),

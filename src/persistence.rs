@@ -4,7 +4,8 @@
 //!
 //! Write protocol ([`atomic_write`]): write a temporary file in the same directory, `fsync` it,
 //! `rename` it over the target (atomic on POSIX file systems), then `fsync` the directory so the
-//! rename itself is durable.
+//! rename itself is durable. A writer killed before the rename leaves its temporary file; the
+//! next [`StateStore::open`] removes those of writers that no longer run.
 
 use std::fs::{self, File, OpenOptions};
 use std::io::Write;
@@ -52,6 +53,11 @@ fn io(action: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> Persi
     }
 }
 
+/// Name of the temporary file a writer with process id `pid` uses for the file `name`.
+fn temp_name(name: &str, pid: u32) -> String {
+    format!(".{name}.tmp.{pid}")
+}
+
 /// Replaces `path` with `bytes` atomically: temp file in the same directory, fsync, rename,
 /// fsync of the directory.
 pub fn atomic_write(path: &Path, bytes: &[u8]) -> Result<(), PersistError> {
@@ -63,8 +69,9 @@ pub fn atomic_write(path: &Path, bytes: &[u8]) -> Result<(), PersistError> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "state".to_owned());
-    // The pid keeps two writers from sharing a temp file; leftovers are harmless and overwritten.
-    let tmp = dir.join(format!(".{name}.tmp.{}", std::process::id()));
+    // The pid keeps two writers from sharing a temp file; a killed writer's leftover is removed
+    // by the next `StateStore::open` (see `remove_stale_temp_files`).
+    let tmp = dir.join(temp_name(&name, std::process::id()));
     {
         let mut file = OpenOptions::new()
             .write(true)
@@ -126,9 +133,11 @@ const TARE_FILE: &str = "tare.json";
 const CALIBRATION_FILE: &str = "calibration.json";
 
 impl StateStore {
-    /// Opens (and creates if missing) the state directory.
+    /// Opens (and creates if missing) the state directory and removes temporary files that
+    /// killed writers left behind.
     pub fn open(dir: &Path) -> Result<Self, PersistError> {
         fs::create_dir_all(dir).map_err(io("create directory", dir))?;
+        remove_stale_temp_files(dir)?;
         Ok(Self {
             dir: dir.to_owned(),
         })
@@ -198,6 +207,57 @@ impl StateStore {
     }
 }
 
+/// Removes `.<state file>.tmp.<pid>` files of the store's own state files whose writer process
+/// no longer exists. Files of a running process stay (it may be between write and rename), and
+/// nothing else in the directory is touched.
+fn remove_stale_temp_files(dir: &Path) -> Result<(), PersistError> {
+    for entry in fs::read_dir(dir).map_err(io("list directory", dir))? {
+        let entry = entry.map_err(io("list directory", dir))?;
+        let Some(pid) = entry.file_name().to_str().and_then(temp_file_pid) else {
+            continue;
+        };
+        let path = entry.path();
+        // Only regular files: a symlink or directory with that name is not ours.
+        let is_file = fs::symlink_metadata(&path).is_ok_and(|m| m.file_type().is_file());
+        if is_file && !process_exists(pid) {
+            match fs::remove_file(&path) {
+                Ok(()) => {
+                    tracing::info!(file = %path.display(), "removed stale temporary state file")
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                Err(e) => return Err(io("remove stale temporary file", &path)(e)),
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The writer's pid when `name` is a temporary file of one of the store's state files.
+fn temp_file_pid(name: &str) -> Option<u32> {
+    // The inverse of `temp_name`.
+    let rest = name.strip_prefix('.')?;
+    [PAYLOAD_FILE, TARE_FILE, CALIBRATION_FILE]
+        .iter()
+        .find_map(|f| rest.strip_prefix(f)?.strip_prefix(".tmp."))
+        .filter(|pid| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()))
+        .and_then(|pid| pid.parse().ok())
+}
+
+/// Whether a process with this pid exists (signal 0 checks without sending anything).
+fn process_exists(pid: u32) -> bool {
+    let Ok(pid) = libc::pid_t::try_from(pid) else {
+        return false;
+    };
+    if pid <= 0 {
+        // 0 and negative values address process groups, not a writer.
+        return true;
+    }
+    // SAFETY: kill with signal 0 performs only the permission and existence checks.
+    let r = unsafe { libc::kill(pid, 0) };
+    // EPERM: the process exists but belongs to someone else.
+    r == 0 || std::io::Error::last_os_error().raw_os_error() != Some(libc::ESRCH)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -246,6 +306,24 @@ mod tests {
             store.load_payload(),
             Err(PersistError::Corrupt { .. })
         ));
+    }
+
+    #[test]
+    fn open_removes_temp_files_of_dead_writers_only() {
+        let dir = tempfile::tempdir().unwrap();
+        // Above the kernel's pid_max (at most 2^22): no such process can exist.
+        let dead = dir.path().join(".payload.json.tmp.4999999");
+        let live = dir
+            .path()
+            .join(format!(".tare.json.tmp.{}", std::process::id()));
+        let foreign = dir.path().join(".notes.txt.tmp.4999999");
+        for f in [&dead, &live, &foreign] {
+            fs::write(f, "partial").unwrap();
+        }
+        StateStore::open(dir.path()).unwrap();
+        assert!(!dead.exists(), "a dead writer's temp file must be removed");
+        assert!(live.exists(), "a running writer's temp file must stay");
+        assert!(foreign.exists(), "files the store does not own must stay");
     }
 
     #[test]

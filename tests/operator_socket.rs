@@ -13,7 +13,8 @@ use fri_service::operator::server::{self, AccessPolicy, EventSink, Handler, Serv
 use serde_json::{Value, json};
 use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
 
-/// Answers `status` with a counter, streams three progress events on `sample`, fails `stop`.
+/// Answers `status` with a counter, streams three progress events on `sample`, fails `stop`,
+/// and streams `state` events on `watch` until the client is gone.
 #[derive(Default)]
 struct TestHandler {
     calls: AtomicUsize,
@@ -31,6 +32,12 @@ impl Handler for TestHandler {
                 Ok(json!({"done": true}))
             }
             Command::Stop => Err(OperatorError::new(ErrorCode::NotReady, "no robot")),
+            Command::Watch { .. } => {
+                while events.send("state", json!({})).await {
+                    tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+                }
+                Ok(json!({}))
+            }
             _ => Err(OperatorError::new(ErrorCode::Failed, "not in test")),
         }
     }
@@ -75,6 +82,40 @@ async fn stale_socket_file_is_replaced() {
     drop(std::os::unix::net::UnixListener::bind(&path).unwrap());
     assert!(path.exists());
     server::bind(&path).await.unwrap();
+}
+
+#[tokio::test]
+async fn bind_refuses_to_remove_anything_but_a_stale_socket() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("precious.txt");
+    std::fs::write(&file, "keep me").unwrap();
+    let e = server::bind(&file).await.unwrap_err().to_string();
+    assert!(
+        e.contains("operator.socket") && e.contains("regular file"),
+        "{e}"
+    );
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "keep me");
+
+    let sub = dir.path().join("a-directory");
+    std::fs::create_dir(&sub).unwrap();
+    let e = server::bind(&sub).await.unwrap_err().to_string();
+    assert!(
+        e.contains("operator.socket") && e.contains("directory"),
+        "{e}"
+    );
+    assert!(sub.is_dir());
+
+    // A symlink, even to a stale socket, is not removed (nor is its target).
+    let stale = dir.path().join("stale.sock");
+    drop(std::os::unix::net::UnixListener::bind(&stale).unwrap());
+    let link = dir.path().join("link.sock");
+    std::os::unix::fs::symlink(&stale, &link).unwrap();
+    let e = server::bind(&link).await.unwrap_err().to_string();
+    assert!(
+        e.contains("operator.socket") && e.contains("symbolic link"),
+        "{e}"
+    );
+    assert!(std::fs::symlink_metadata(&link).is_ok() && stale.exists());
 }
 
 #[tokio::test]
@@ -234,6 +275,7 @@ async fn many_clients_at_once() {
 async fn client_limit_rejects_extra_connections_with_busy() {
     let limits = ServerLimits {
         max_clients: 1,
+        over_limit_grace: std::time::Duration::from_millis(100),
         ..ServerLimits::default()
     };
     let (_dir, path, _tx) = start(limits).await;
@@ -249,6 +291,132 @@ async fn client_limit_rejects_extra_connections_with_busy() {
         Reply::Err { error, .. } => assert_eq!(error.code, ErrorCode::Busy),
         other => panic!("{other:?}"),
     }
+}
+
+#[tokio::test]
+async fn stop_gets_through_while_idle_clients_hold_the_connection_limit() {
+    let limits = ServerLimits {
+        max_clients: 2,
+        ..ServerLimits::default()
+    };
+    let (_dir, path, _tx) = start(limits).await;
+    let mut holders = Vec::new();
+    for _ in 0..2 {
+        let mut c = Client::connect(&path).await.unwrap();
+        c.call(Command::Status, |_, _| {}).await.unwrap().unwrap();
+        holders.push(c);
+    }
+    // The test handler answers `stop` with "no robot": that reply proves it was executed.
+    let mut extra = Client::connect(&path).await.unwrap();
+    let e = extra
+        .call(Command::Stop, |_, _| {})
+        .await
+        .unwrap()
+        .unwrap_err();
+    assert_eq!(
+        (e.code, e.message.as_str()),
+        (ErrorCode::NotReady, "no robot")
+    );
+    // The over-limit connection served its one `stop` and is closed.
+    assert!(matches!(
+        extra.next_reply().await,
+        Err(fri_service::operator::client::ClientError::Closed)
+    ));
+    // Anything but `stop` is still refused while the limit is reached.
+    let mut other = Client::connect(&path).await.unwrap();
+    let e = other
+        .call(Command::Status, |_, _| {})
+        .await
+        .unwrap()
+        .unwrap_err();
+    assert_eq!(e.code, ErrorCode::Busy);
+    assert!(e.message.contains("too many operator connections"), "{e:?}");
+    // The holders are unaffected.
+    for c in &mut holders {
+        c.call(Command::Status, |_, _| {}).await.unwrap().unwrap();
+    }
+}
+
+#[tokio::test]
+async fn over_limit_connections_are_bounded_and_silent_ones_are_closed() {
+    let limits = ServerLimits {
+        max_clients: 1,
+        over_limit_connections: 1,
+        over_limit_grace: std::time::Duration::from_secs(1),
+        ..ServerLimits::default()
+    };
+    let (_dir, path, _tx) = start(limits).await;
+    let mut holder = Client::connect(&path).await.unwrap();
+    holder
+        .call(Command::Status, |_, _| {})
+        .await
+        .unwrap()
+        .unwrap();
+    // Takes the only over-limit slot and sends nothing.
+    let mut silent = Client::connect(&path).await.unwrap();
+    // No slot left at all: refused at once rather than queued without bound.
+    let mut third = Client::connect(&path).await.unwrap();
+    match third.next_reply().await.unwrap() {
+        Reply::Err { error, .. } => assert_eq!(error.code, ErrorCode::Busy),
+        other => panic!("{other:?}"),
+    }
+    // The silent one is refused after the grace period and closed.
+    match silent.next_reply().await.unwrap() {
+        Reply::Err { error, .. } => assert_eq!(error.code, ErrorCode::Busy),
+        other => panic!("{other:?}"),
+    }
+    assert!(matches!(
+        silent.next_reply().await,
+        Err(fri_service::operator::client::ClientError::Closed)
+    ));
+}
+
+#[tokio::test]
+async fn idle_connections_are_closed_but_not_while_a_request_runs() {
+    let limits = ServerLimits {
+        idle_timeout: std::time::Duration::from_millis(300),
+        ..ServerLimits::default()
+    };
+    let (_dir, path, _tx) = start(limits).await;
+    // Connected first, with a `watch` in flight the whole time.
+    let mut watching = Client::connect(&path).await.unwrap();
+    watching
+        .send_raw(b"{\"id\":1,\"cmd\":\"watch\"}\n")
+        .await
+        .unwrap();
+    assert!(matches!(
+        watching.next_reply().await.unwrap(),
+        Reply::Event { .. }
+    ));
+    // One that never sends anything, and one that goes quiet after a request.
+    let mut silent = Client::connect(&path).await.unwrap();
+    let mut quiet = Client::connect(&path).await.unwrap();
+    quiet
+        .call(Command::Status, |_, _| {})
+        .await
+        .unwrap()
+        .unwrap();
+    for c in [&mut silent, &mut quiet] {
+        match c.next_reply().await.unwrap() {
+            Reply::Err {
+                id: None, error, ..
+            } => {
+                assert_eq!(error.code, ErrorCode::Busy);
+                assert!(error.message.contains("idle"), "{error:?}");
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(matches!(
+            c.next_reply().await,
+            Err(fri_service::operator::client::ClientError::Closed)
+        ));
+    }
+    // The watching connection has been open longer than both and still serves requests.
+    watching
+        .call(Command::Status, |_, _| {})
+        .await
+        .unwrap()
+        .unwrap();
 }
 
 #[tokio::test]

@@ -387,11 +387,17 @@ fn set_point_and_added_torque_move_at_most_one_step_per_cycle_in_command_mode() 
     };
     let mut last = mirror;
     let mut last_trq = [0.0f64; 7];
+    let mut reflect = 1u16;
     for seq in 2..12u16 {
+        // A controller that received every reply reflects it.
         let r = rig.cycle(
-            &with(seq, |m| m.interface.state = InterfaceState::Command),
+            &with(seq, |m| {
+                m.interface.state = InterfaceState::Command;
+                m.header.refl_seq_count = reflect;
+            }),
             &desired,
         );
+        reflect = r.send_seq_count();
         let q = r.jnt_pos().map(f64::from);
         let t = r.add_jnt_trq().map(f64::from);
         for i in 0..7 {
@@ -558,4 +564,42 @@ fn handshake_status_is_read_from_the_last_good_measurement() {
     let st = rig.session.handshake_status();
     assert_eq!(st.status, fri::handshake::KrlStatus::CommandActive);
     assert_eq!(st.active_strategy, KrlStrategy::JointImpedance);
+}
+
+#[test]
+fn after_missed_answers_steps_start_from_the_controllers_extrapolated_set_point() {
+    let config = SessionConfig::default();
+    let max_step = config.max_joint_step;
+    let mut rig = Rig::new(config);
+    rig.session
+        .request(RequestKind::StartCommandMode, KrlStrategy::JointImpedance);
+    rig.cycle(&with(1, |_| {}), &DesiredCommand::default());
+    let mirror: [f64; 7] = expected_mirror().map(f64::from);
+    let mut target = mirror;
+    target[0] += 0.1;
+    let desired = DesiredCommand {
+        joint_position: Some(target),
+        ..Default::default()
+    };
+    let r = rig.cycle(
+        &with(2, |m| m.interface.state = InterfaceState::Command),
+        &desired,
+    );
+    let sent = r.jnt_pos().map(f64::from);
+    // Three answers lost: the controller extrapolated our step three times and says so in
+    // cmdJntPos, and its reflSeqCount is not our last reply.
+    let extrapolated = sent[0] + 3.0 * max_step;
+    let r = rig.cycle(
+        &with(6, |m| {
+            m.interface.state = InterfaceState::Command;
+            m.data.cmd_jnt_pos[0] = extrapolated - m.data.cmd_jnt_pos_fri_offset[0];
+            m.header.refl_seq_count = 0;
+        }),
+        &desired,
+    );
+    let next = f64::from(r.jnt_pos()[0]);
+    assert!(
+        next >= extrapolated - 1e-6 && next <= extrapolated + max_step + 1e-6,
+        "the reply {next} must continue from the controller's set-point {extrapolated}"
+    );
 }

@@ -471,7 +471,10 @@ impl KrlProgram {
                 return Some(self.drop_to_monitor(Some(DropReason::SetPointJump)));
             }
         }
-        self.setpoint_step = (c.jnt_pos - self.setpoint) / (1.0 + bridged);
+        // `self.setpoint` was extrapolated through the bridged cycles, so the difference is one
+        // cycle's step of a remote that kept its time base (dividing it by the bridged count
+        // would halve the next extrapolation and kick the arm).
+        self.setpoint_step = c.jnt_pos - self.setpoint;
         self.setpoint = c.jnt_pos;
         self.consecutive_misses = 0;
         None
@@ -653,6 +656,14 @@ mod tests {
         let c3 = request(&(q + step * 3.0), FLAGS_POSITION, 0, 10, 1);
         assert_eq!(p.step(Some(&c3), Quality::Perfect, &q), None);
         assert_eq!(p.state(), FriState::Command);
+        // The answer after a bridged miss keeps the remote's per-cycle step: the next bridged
+        // miss extrapolates a whole step, not half of one (which kicks the simulated arm).
+        p.step(None, Quality::Perfect, &q);
+        assert!(
+            (p.fri_setpoint() - (q + step * 4.0)).amax() < 1e-12,
+            "{:?}",
+            p.fri_setpoint() - q
+        );
     }
 
     #[test]

@@ -12,8 +12,8 @@
 use std::io::{BufWriter, ErrorKind};
 use std::net::{SocketAddr, UdpSocket};
 use std::path::PathBuf;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -83,6 +83,47 @@ impl RunSummary {
     }
 }
 
+/// Round trips kept by [`RunCounters`] (10 min at 1 kHz).
+const MAX_LATENCIES: usize = 600_000;
+
+/// Live counters of a run, readable from other threads while it goes on.
+#[derive(Debug)]
+pub struct RunCounters {
+    /// Cycles run.
+    pub cycles: AtomicU64,
+    /// Cycles whose measurement was answered in time (before the next one was due).
+    pub answered: AtomicU64,
+    latencies: Mutex<Vec<f64>>,
+}
+
+impl Default for RunCounters {
+    fn default() -> Self {
+        Self {
+            cycles: AtomicU64::new(0),
+            answered: AtomicU64::new(0),
+            // Reserved up front: recording a round trip never allocates in the loop.
+            latencies: Mutex::new(Vec::with_capacity(MAX_LATENCIES)),
+        }
+    }
+}
+
+impl RunCounters {
+    /// Round trips (measurement sent → its answer received) so far, s; real time only, at
+    /// most the first ten minutes.
+    pub fn latencies(&self) -> Vec<f64> {
+        self.latencies.lock().map(|l| l.clone()).unwrap_or_default()
+    }
+
+    fn answered(&self, latency_s: f64) {
+        self.answered.fetch_add(1, Ordering::Relaxed);
+        if let Ok(mut l) = self.latencies.lock()
+            && l.len() < l.capacity()
+        {
+            l.push(latency_s);
+        }
+    }
+}
+
 /// Waits until `socket` is readable or `timeout` passes; true when readable.
 ///
 /// `ppoll` with a nanosecond timeout (high-resolution timer): `SO_RCVTIMEO` is rounded to the
@@ -135,12 +176,14 @@ fn recv_until(socket: &UdpSocket, buf: &mut [u8], deadline: Instant) -> Option<(
     }
 }
 
-/// Runs `sim` on `socket` until the scenario ends, `stop` is set or `max_cycles` is reached.
+/// Runs `sim` on `socket` until the scenario ends, `stop` is set or `max_cycles` is reached;
+/// `counters` follow the run live.
 pub fn run(
     sim: &mut Simulation,
     socket: &UdpSocket,
     config: &ServerConfig,
     stop: &AtomicBool,
+    counters: &RunCounters,
 ) -> Result<RunSummary, SimError> {
     let mut truth = match &config.truth_log {
         Some(path) => Some(TruthLog::new(BufWriter::new(std::fs::File::create(path)?))?),
@@ -191,7 +234,11 @@ pub fn run(
                 // gets at least half a cycle to answer: misses should be the remote's.
                 let deadline = (t0 + cycle * (k + 1)).max(sent_at + cycle / 2);
                 while let Some((n, at)) = recv_until(socket, &mut buf, deadline) {
-                    sim.submit_datagram(&buf[..n], (at - sent_at).as_secs_f64());
+                    let latency_s = (at - sent_at).as_secs_f64();
+                    if answers(&buf[..n], msr_seq) {
+                        counters.answered(latency_s);
+                    }
+                    sim.submit_datagram(&buf[..n], latency_s);
                 }
             }
             TimingMode::Lockstep { answer_timeout } => {
@@ -199,9 +246,8 @@ pub fn run(
                 if sent {
                     while let Some((n, _)) = recv_until(socket, &mut buf, deadline) {
                         sim.submit_datagram(&buf[..n], 0.0);
-                        if Command::parse(&buf[..n])
-                            .is_ok_and(|c| c.header.refl_seq_count == msr_seq)
-                        {
+                        if answers(&buf[..n], msr_seq) {
+                            counters.answered(0.0);
                             break;
                         }
                     }
@@ -213,6 +259,7 @@ pub fn run(
             log.record(sim, &msr)?;
         }
         summary.cycles += 1;
+        counters.cycles.fetch_add(1, Ordering::Relaxed);
         k = k.wrapping_add(1);
     }
     if let Some(log) = truth.as_mut() {
@@ -226,11 +273,17 @@ pub fn run(
     Ok(summary)
 }
 
+/// Whether `datagram` is a command answering measurement `msr_seq`.
+fn answers(datagram: &[u8], msr_seq: u16) -> bool {
+    Command::parse(datagram).is_ok_and(|c| c.header.refl_seq_count == msr_seq)
+}
+
 /// A controller running on its own thread.
 #[derive(Debug)]
 pub struct MockRobotHandle {
     local_addr: SocketAddr,
     stop: Arc<AtomicBool>,
+    counters: Arc<RunCounters>,
     thread: JoinHandle<Result<(Simulation, RunSummary), SimError>>,
 }
 
@@ -238,6 +291,11 @@ impl MockRobotHandle {
     /// The controller's socket address (where its measurements come from).
     pub fn local_addr(&self) -> SocketAddr {
         self.local_addr
+    }
+
+    /// The run's live counters.
+    pub fn counters(&self) -> &RunCounters {
+        &self.counters
     }
 
     /// Asks the controller to stop after the current cycle.
@@ -264,16 +322,36 @@ pub fn spawn(mut sim: Simulation, config: ServerConfig) -> Result<MockRobotHandl
     let socket = UdpSocket::bind(config.bind)?;
     let local_addr = socket.local_addr()?;
     let stop = Arc::new(AtomicBool::new(false));
+    let counters = Arc::new(RunCounters::default());
     let thread_stop = Arc::clone(&stop);
+    let thread_counters = Arc::clone(&counters);
     let thread = std::thread::Builder::new()
         .name("mock-robot".into())
         .spawn(move || {
-            let summary = run(&mut sim, &socket, &config, &thread_stop)?;
+            if config.mode == TimingMode::RealTime {
+                realtime_priority();
+            }
+            let summary = run(&mut sim, &socket, &config, &thread_stop, &thread_counters)?;
             Ok((sim, summary))
         })?;
     Ok(MockRobotHandle {
         local_addr,
         stop,
+        counters,
         thread,
     })
+}
+
+/// Best-effort SCHED_FIFO for a real-time run: a real controller is not preempted by the
+/// remote's host, so neither should the simulated one be (its delays would count as misses).
+fn realtime_priority() {
+    let param = libc::sched_param { sched_priority: 80 };
+    // SAFETY: pthread_self() is valid for the calling thread; `param` outlives the call.
+    let rc = unsafe { libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param) };
+    if rc != 0 {
+        tracing::debug!(
+            rc,
+            "mock controller: SCHED_FIFO not permitted; timing may suffer"
+        );
+    }
 }

@@ -472,6 +472,13 @@ impl Simulation {
         &self.tau_motor
     }
 
+    /// The controller's current joint set-point (what its interpolator follows), rad: the last
+    /// accepted command, extrapolated through bridged misses, or the measured position when the
+    /// controller is not in command mode.
+    pub fn commanded_setpoint(&self) -> JointVector {
+        *self.krl.fri_setpoint()
+    }
+
     /// Current τ_J sensor bias (offset + drift) per joint, Nm.
     pub fn sensor_bias(&self) -> JointVector {
         self.sensors.bias()

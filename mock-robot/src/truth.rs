@@ -27,7 +27,15 @@ impl<W: Write> TruthLog<W> {
         let mut header = String::from(
             "t_s,cycle,fri_state,quality,payload_attached,payload_mass_kg,payload_com_x_m,payload_com_y_m,payload_com_z_m",
         );
-        for name in ["q", "qd", "tau_j", "tau_ext", "tau_msr", "sensor_bias"] {
+        for name in [
+            "q",
+            "qd",
+            "tau_j",
+            "tau_ext",
+            "tau_msr",
+            "sensor_bias",
+            "setpoint",
+        ] {
             for j in 1..=7 {
                 header.push_str(&format!(",{name}{j}"));
             }
@@ -69,7 +77,7 @@ impl<W: Write> TruthLog<W> {
         for x in &msr.data.msr_jnt_trq {
             write!(o, ",{x}")?;
         }
-        for x in bias.iter() {
+        for x in bias.iter().chain(sim.commanded_setpoint().iter()) {
             write!(o, ",{x}")?;
         }
         match sim.contacts().iter().find(|c| c.active) {
@@ -132,7 +140,7 @@ mod tests {
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines.len(), 21);
         let width = lines[0].split(',').count();
-        assert_eq!(width, 9 + 42 + 12);
+        assert_eq!(width, 9 + 49 + 12);
         assert!(lines.iter().all(|l| l.split(',').count() == width));
         assert!(lines[1].ends_with(",,,,,,,,,,,,"));
         let last: Vec<&str> = lines[20].split(',').collect();

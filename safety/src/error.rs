@@ -58,6 +58,9 @@ pub enum ConfigError {
     /// Hysteresis ratio outside (0, 1] or zero debounce/release counts.
     #[error("release ratio must be in (0, 1] and debounce/release counts at least 1")]
     Hysteresis,
+    /// Warm-up duration not finite or outside 0…10 s.
+    #[error("monitor warm-up {0} s must be finite and within 0…10 s")]
+    Warmup(f64),
     /// Pause duration not finite or negative.
     #[error("pause duration {0} s must be finite and non-negative")]
     Pause(f64),

@@ -33,7 +33,7 @@ pub use discretisation::{Discretisation, ResidualIntegrator};
 pub use error::ConfigError;
 pub use fault::{Fault, FaultLog, Signal};
 pub use friction::JointFriction;
-pub use monitor::{CollisionMonitor, MonitorConfig, MonitorOutput};
+pub use monitor::{CollisionMonitor, DEFAULT_WARMUP_S, MonitorConfig, MonitorOutput};
 pub use observer::{MomentumObserver, ObserverInput, ObserverOutput, ObserverStatus};
 pub use payload::PayloadCompensation;
 pub use reaction::{ReactionPolicy, ReactionRequest, ReactionState, ReactionSupervisor, StopCause};

@@ -1,4 +1,10 @@
 //! The complete per-cycle pipeline: observer → detector → isolation/identification → reaction.
+//!
+//! The monitor is *live* (its residual means something and onsets react) only once the observer
+//! has run `warmup_s` on consecutive samples since it started or was [restarted]
+//! (CollisionMonitor::restart): the velocity filter and the residual start from zero, so the
+//! first tens of milliseconds carry start-up transients, not contacts. The service restarts the
+//! monitor after a controller restart or a gap too long to bridge, never integrating across it.
 
 use dynamics::Data;
 use nalgebra::{SVector, Vector3, Vector6};
@@ -33,7 +39,14 @@ pub struct MonitorConfig<const N: usize> {
     pub contact_point: Option<Vector3<f64>>,
     /// Damping λ of the contact-wrench estimate (0 = plain pseudo-inverse).
     pub wrench_damping: f64,
+    /// Samples after a (re)start in which the residual is not trusted, as time \[s\]
+    /// (0…10 s; default [`DEFAULT_WARMUP_S`]).
+    pub warmup_s: f64,
 }
+
+/// Default warm-up after a (re)start \[s\]: 50 ms, twenty residual time constants at the
+/// default K_I = 400 1/s, and longer than the velocity filter's settling.
+pub const DEFAULT_WARMUP_S: f64 = 0.05;
 
 impl<const N: usize> MonitorConfig<N> {
     /// Defaults around an observer with period `sample_period_s` \[s\] and gain `gain` \[1/s\].
@@ -45,6 +58,7 @@ impl<const N: usize> MonitorConfig<N> {
             fault_reaction: ReactionPolicy::Stop,
             contact_point: None,
             wrench_damping: DEFAULT_WRENCH_DAMPING,
+            warmup_s: DEFAULT_WARMUP_S,
         }
     }
 }
@@ -60,6 +74,9 @@ pub struct MonitorOutput<const N: usize> {
     pub reaction: Option<ReactionRequest<N>>,
     /// Reaction state after this cycle.
     pub reaction_state: ReactionState,
+    /// False during the warm-up after a (re)start: the residual is not to be trusted or
+    /// published, and the detector was not updated.
+    pub live: bool,
 }
 
 /// Observer + detector + isolation + reaction for N joints; `step` is allocation-free.
@@ -71,6 +88,8 @@ pub struct CollisionMonitor<const N: usize> {
     wrench_data: Data<N>,
     contact_point: Vector3<f64>,
     wrench_damping: f64,
+    warmup_samples: u32,
+    warmup_left: u32,
 }
 
 impl<const N: usize> CollisionMonitor<N> {
@@ -79,6 +98,16 @@ impl<const N: usize> CollisionMonitor<N> {
         if !(config.wrench_damping.is_finite() && config.wrench_damping >= 0.0) {
             return Err(ConfigError::Damping(config.wrench_damping));
         }
+        if !(config.warmup_s.is_finite() && (0.0..=10.0).contains(&config.warmup_s)) {
+            return Err(ConfigError::Warmup(config.warmup_s));
+        }
+        let period = config.observer.sample_period_s;
+        // Validated by the observer below; a bad period yields its error, not ours.
+        let warmup_samples = if period.is_finite() && period > 0.0 {
+            (config.warmup_s / period).ceil() as u32
+        } else {
+            0
+        };
         let contact_point = config
             .contact_point
             .unwrap_or_else(|| model.flange().translation.vector);
@@ -90,7 +119,45 @@ impl<const N: usize> CollisionMonitor<N> {
             wrench_data,
             contact_point,
             wrench_damping: config.wrench_damping,
+            warmup_samples,
+            warmup_left: warmup_samples,
         })
+    }
+
+    /// Arms (true) or disarms (false) the reaction (see [`ReactionSupervisor::set_armed`]).
+    /// Arming also re-arms the detector: a residual already over its threshold is a fresh
+    /// onset on the next live sample, so arming into a contact reacts at once.
+    pub fn set_armed(&mut self, armed: bool) {
+        self.supervisor.set_armed(armed);
+        if armed {
+            self.detector.reset();
+        }
+    }
+
+    /// Whether the reaction is armed.
+    pub fn is_armed(&self) -> bool {
+        self.supervisor.is_armed()
+    }
+
+    /// Ends a hold from the service's side (see [`ReactionSupervisor::release`]) and re-arms
+    /// the detector, so a contact that is still present is detected again at once.
+    pub fn release_reaction(&mut self) {
+        self.supervisor.release();
+        self.detector.reset();
+    }
+
+    /// Forgets the observer's state and the detector's latch; the next sample starts a new
+    /// warm-up. For a controller restart or a gap that cannot be bridged: integrating across
+    /// it would turn the missing samples into a residual step.
+    pub fn restart(&mut self) {
+        self.observer.reset();
+        self.detector.reset();
+        self.warmup_left = self.warmup_samples;
+    }
+
+    /// Whether the residual is trusted (warm-up over).
+    pub fn is_live(&self) -> bool {
+        self.warmup_left == 0 && self.observer.residual_trusted()
     }
 
     /// The observer.
@@ -144,7 +211,11 @@ impl<const N: usize> CollisionMonitor<N> {
         let observed = self.observer.step(input);
         let mut detection = None;
         let mut onset = None;
-        if observed.status.residual_updated() {
+        let warming = self.warmup_left > 0;
+        if warming && !matches!(observed.status, ObserverStatus::Rejected(_)) {
+            self.warmup_left -= 1;
+        }
+        if observed.status.residual_updated() && !warming {
             let mut d = self.detector.update(
                 &observed.residual,
                 &observed.velocity,
@@ -182,6 +253,7 @@ impl<const N: usize> CollisionMonitor<N> {
             detection,
             reaction,
             reaction_state: self.supervisor.state(),
+            live: self.is_live(),
         }
     }
 }

@@ -217,6 +217,11 @@ impl<const N: usize> MomentumObserver<N> {
         Ok(())
     }
 
+    /// Whether a first good sample initialised p(0) since creation or [`Self::reset`].
+    pub fn residual_trusted(&self) -> bool {
+        self.started
+    }
+
     /// Forgets all state: the next sample re-initialises p(0) and the residual.
     pub fn reset(&mut self) {
         self.started = false;

@@ -3,6 +3,13 @@
 //! The safety crate does not command the robot; it returns a [`ReactionRequest`] that the service
 //! executes (hold the measured position, resume the interrupted motion). The paper's experiment
 //! stops for 2 s and then resumes ([`ReactionPolicy::PauseThenResume`] with 2 s).
+//!
+//! Rules that keep the reaction live (a supervisor that latched in a hold state while nobody
+//! held the arm would ignore every later onset):
+//! - disarmed, the supervisor never requests anything and stays [`ReactionState::Running`];
+//! - [`ReactionSupervisor::set_armed`]`(true)` always starts from `Running`;
+//! - the service calls [`ReactionSupervisor::release`] whenever it ends a hold itself (operator
+//!   resume) or chooses not to hold (report-only), so `Running` means "the next onset reacts".
 
 use serde::{Deserialize, Serialize};
 
@@ -95,6 +102,7 @@ pub struct ReactionSupervisor {
     clear_since_s: Option<f64>,
     active_pause_s: f64,
     acknowledged: bool,
+    armed: bool,
 }
 
 impl ReactionSupervisor {
@@ -110,7 +118,29 @@ impl ReactionSupervisor {
             clear_since_s: None,
             active_pause_s: 0.0,
             acknowledged: false,
+            armed: true,
         })
+    }
+
+    /// Arms (true) or disarms (false) the reaction. Either way the state becomes
+    /// [`ReactionState::Running`]: arming never inherits a hold that was latched before, and a
+    /// disarmed supervisor holds nothing. New supervisors are armed.
+    pub fn set_armed(&mut self, armed: bool) {
+        self.armed = armed;
+        self.release();
+    }
+
+    /// Whether onsets and faults produce requests.
+    pub fn is_armed(&self) -> bool {
+        self.armed
+    }
+
+    /// Back to [`ReactionState::Running`] without a [`ReactionRequest::Resume`]: the service
+    /// ended the hold itself (operator resume) or did not hold at all (report-only policy).
+    pub fn release(&mut self) {
+        self.state = ReactionState::Running;
+        self.clear_since_s = None;
+        self.acknowledged = false;
     }
 
     /// Current state.
@@ -150,7 +180,7 @@ impl ReactionSupervisor {
 
     /// Advances at time `time_s` \[s\] with this sample's collision onset (if any), whether a
     /// contact is present, and the observer fault (if any). Returns a request when the state
-    /// changes.
+    /// changes; never one while disarmed.
     pub fn update<const N: usize>(
         &mut self,
         time_s: f64,
@@ -158,6 +188,9 @@ impl ReactionSupervisor {
         contact_present: bool,
         fault: Option<Fault>,
     ) -> Option<ReactionRequest<N>> {
+        if !self.armed {
+            return None;
+        }
         if let Some(fault) = fault {
             // A fault escalates from Running or from an automatic pause; an already stopped or
             // operator-held robot stays as it is.
@@ -265,6 +298,36 @@ mod tests {
         assert_eq!(s.state(), ReactionState::Stopped);
         // No automatic resume from a stop.
         assert_eq!(s.update::<2>(200.0, None, false, None), None);
+    }
+
+    #[test]
+    fn a_detection_while_disarmed_does_not_latch_the_reaction() {
+        let mut s = ReactionSupervisor::new(ReactionPolicy::Stop, ReactionPolicy::Stop).unwrap();
+        s.set_armed(false);
+        // Disarmed: the uncompensated payload trips the detector, nothing is requested.
+        assert_eq!(s.update(1.0, Some(&event()), true, None), None);
+        let f = Fault::InvalidTimeStep { dt_s: 0.0 };
+        assert_eq!(s.update::<2>(1.1, None, true, Some(f)), None);
+        assert_eq!(s.state(), ReactionState::Running);
+        s.set_armed(true);
+        assert!(matches!(
+            s.update(2.0, Some(&event()), true, None),
+            Some(ReactionRequest::Stop(StopCause::Collision(_)))
+        ));
+    }
+
+    #[test]
+    fn arming_clears_a_latched_hold_and_release_rearms() {
+        let mut s = ReactionSupervisor::new(ReactionPolicy::Stop, ReactionPolicy::Stop).unwrap();
+        assert!(s.update(1.0, Some(&event()), true, None).is_some());
+        assert_eq!(s.state(), ReactionState::Stopped);
+        // A second onset while stopped requests nothing (the arm is held already) ...
+        assert_eq!(s.update(1.5, Some(&event()), true, None), None);
+        // ... but once the service released the hold, the next onset reacts again.
+        s.release();
+        assert!(s.update(2.0, Some(&event()), true, None).is_some());
+        s.set_armed(true);
+        assert_eq!(s.state(), ReactionState::Running);
     }
 
     #[test]

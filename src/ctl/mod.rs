@@ -132,10 +132,11 @@ pub enum OperatorCommand {
     Stop(Conn),
     /// Resume after a stop or a collision reaction.
     Resume(Conn),
-    /// Record static samples or a per-cycle log to CSV (written by the service).
+    /// Record static samples or a per-cycle log to a new CSV file in the service's recording
+    /// directory (`state.record_dir`); prints the file's full path.
     Record {
-        /// Output CSV path (as seen by the service).
-        path: PathBuf,
+        /// File name in the recording directory (A-Z a-z 0-9 . _ -, no `/`; must not exist yet).
+        name: String,
         /// What to record.
         #[arg(long, value_enum, default_value = "log")]
         kind: RecordArg,
@@ -268,14 +269,14 @@ impl OperatorCommand {
             O::Stop(c) => (Command::Stop, c),
             O::Resume(c) => (Command::Resume, c),
             O::Record {
-                path,
+                name,
                 kind,
                 duration,
                 count,
                 conn,
             } => (
                 Command::Record {
-                    path: path.to_string_lossy().into_owned(),
+                    path: name.clone(),
                     kind: match kind {
                         RecordArg::Samples => RecordKind::Samples,
                         RecordArg::Log => RecordKind::Log,
@@ -512,6 +513,16 @@ fn print_human(command: &Command, r: &Value) {
                     "not applied (use --apply or `fri-ctl apply-payload`)"
                 }
             );
+        }
+        Command::Record { .. } => {
+            println!(
+                "recorded {} rows to {}",
+                r["rows"],
+                r["path"].as_str().unwrap_or("?")
+            );
+            if r["lost"].as_u64().is_some_and(|n| n > 0) {
+                println!("({} cycles lost: the recorder fell behind)", r["lost"]);
+            }
         }
         _ => println!("{}", serde_json::to_string_pretty(r).unwrap_or_default()),
     }

@@ -390,8 +390,10 @@ async fn phases(
         std::env::current_dir()?.join(&log)
     };
     // Recording and watching start before the controller run so that t = 0 is its first cycle.
+    // The service writes only into its recording directory (in the demo's work directory); the
+    // log is copied to the output directory afterwards.
     let mut recorder = Client::connect(socket).await?;
-    let record_path = log_abs.to_string_lossy().into_owned();
+    let record_path = "free-motion.csv".to_owned();
     let record = tokio::spawn(async move {
         recorder
             .call(
@@ -427,6 +429,11 @@ async fn phases(
         .map_err(|e| anyhow::anyhow!("recording failed: {}", e.message))?;
     drop(driver.stop());
     watch_task.abort();
+    let written = recorded["path"]
+        .as_str()
+        .context("the record reply has no path")?;
+    std::fs::copy(written, &log_abs)
+        .with_context(|| format!("copying {written} to {}", log_abs.display()))?;
     say(
         opts,
         format!(

@@ -25,6 +25,9 @@ pub mod flags {
     pub const OBSERVER_FAULT: u32 = 1 << 5;
     /// The service is driving a commanded move (estimation poses, brake).
     pub const MOVING: u32 = 1 << 6;
+    /// The collision monitor is warming up after a (re)start or waits for the arm to come to
+    /// rest: `residual` is NaN and no collision can be detected.
+    pub const RESIDUAL_INVALID: u32 = 1 << 7;
 }
 
 /// Robot state, published once per FRI cycle on `<prefix>/state`.
@@ -46,7 +49,8 @@ pub struct RobotState {
     pub gravity: [f64; JOINTS],
     /// The controller's estimated external joint torques (estExtJntTrq), Nm.
     pub tau_ext: [f64; JOINTS],
-    /// The service's momentum-observer residual (payload-compensated when one is applied), Nm.
+    /// The service's momentum-observer residual (payload-compensated when one is applied), Nm;
+    /// NaN while [`flags::RESIDUAL_INVALID`] is set.
     pub residual: [f64; JOINTS],
     /// Combination of [`flags`] bits.
     pub flags: u32,

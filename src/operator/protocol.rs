@@ -84,9 +84,11 @@ pub enum Command {
     Stop,
     /// Resume after a stop or a collision reaction.
     Resume,
-    /// Record to a CSV file.
+    /// Record to a new CSV file in the recording directory (`state.record_dir`).
     Record {
-        /// Output CSV path (written by the service).
+        /// File name in the recording directory: 1 to 255 characters of `A-Z a-z 0-9 . _ -`,
+        /// not starting with `.` or `-`, no `/`; an existing name is refused. The reply's
+        /// `path` is the full path.
         path: String,
         /// What to record.
         kind: RecordKind,
@@ -178,6 +180,9 @@ pub struct OperatorError {
     pub code: ErrorCode,
     /// What went wrong and, where possible, what to do.
     pub message: String,
+    /// The typed cause with the controller's view at the time, where the service knows it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cause: Option<super::cause::Cause>,
 }
 
 impl OperatorError {
@@ -186,7 +191,14 @@ impl OperatorError {
         Self {
             code,
             message: message.into(),
+            cause: None,
         }
+    }
+
+    /// This error with its typed cause.
+    pub fn with_cause(mut self, cause: super::cause::Cause) -> Self {
+        self.cause = Some(cause);
+        self
     }
 }
 
@@ -516,7 +528,7 @@ mod tests {
             r#"{"id":1,"cmd":"collision","action":"show"}"#,
             r#"{"id":1,"cmd":"stop"}"#,
             r#"{"id":1,"cmd":"resume"}"#,
-            r#"{"id":1,"cmd":"record","path":"/tmp/x.csv","kind":"log","duration_s":1}"#,
+            r#"{"id":1,"cmd":"record","path":"x.csv","kind":"log","duration_s":1}"#,
             r#"{"id":1,"cmd":"watch"}"#,
         ];
         assert_eq!(minimal.len(), Command::NAMES.len());

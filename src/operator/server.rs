@@ -4,11 +4,16 @@
 //! Each request runs in its own task so a long workflow (estimation, watch) never blocks a `stop`
 //! sent on the same connection; replies of concurrent requests interleave by line and are matched
 //! by `id`. Nothing a client sends can stop the server: bad lines get error replies.
+//!
+//! Clients cannot lock out `stop`: a connection with no request in flight that sends nothing for
+//! `idle_timeout` is closed, and beyond the connection limit a few extra connections are still
+//! read up to their first line so that a `stop` is executed ([`super::overflow`]).
 
 use std::future::Future;
 use std::os::unix::fs::PermissionsExt;
 use std::path::Path;
 use std::sync::Arc;
+use std::time::Duration;
 
 use serde_json::Value;
 use tokio::io::AsyncWriteExt;
@@ -17,6 +22,7 @@ use tokio::sync::{Semaphore, mpsc, watch};
 use tracing::{debug, info, warn};
 
 use super::frame::{Frame, LineReader};
+use super::overflow;
 use super::protocol::{ErrorCode, OperatorError, Reply, RequestId, parse_request};
 
 /// Executes operator commands; implemented by the service (and by test doubles).
@@ -89,6 +95,13 @@ pub struct ServerLimits {
     pub max_clients: usize,
     /// Most requests running at once on one connection.
     pub max_in_flight: usize,
+    /// A connection with no request in flight that sends nothing for this long is closed.
+    pub idle_timeout: Duration,
+    /// Most connections at once beyond `max_clients` that are read for a `stop` only.
+    pub over_limit_connections: usize,
+    /// How long an over-limit connection may take to send its first line (and to take the
+    /// reply).
+    pub over_limit_grace: Duration,
 }
 
 impl Default for ServerLimits {
@@ -97,6 +110,9 @@ impl Default for ServerLimits {
             max_line_bytes: 65536,
             max_clients: 64,
             max_in_flight: 16,
+            idle_timeout: Duration::from_secs(30),
+            over_limit_connections: 4,
+            over_limit_grace: Duration::from_secs(2),
         }
     }
 }
@@ -117,10 +133,49 @@ pub enum ServerError {
     /// Another server answers on the socket path.
     #[error("another service is already listening on {0}")]
     InUse(std::path::PathBuf),
+    /// Something other than a socket exists at the path; it is never removed.
+    #[error(
+        "operator.socket {path} is a {found}, not a socket; refusing to replace it (remove it or \
+         choose another operator.socket)"
+    )]
+    NotASocket {
+        /// The path.
+        path: std::path::PathBuf,
+        /// What was found there, e.g. `regular file`.
+        found: &'static str,
+    },
+    /// A socket file exists but connecting failed for another reason than "nobody listens", so
+    /// it cannot be called stale.
+    #[error("operator.socket {path}: cannot tell whether the existing socket is stale: {source}")]
+    Unprobeable {
+        /// The path.
+        path: std::path::PathBuf,
+        /// The connect error.
+        source: std::io::Error,
+    },
 }
 
-/// Binds the operator socket at `path` with mode 0660, removing a stale socket file left by a
-/// crashed instance (but refusing when a live server answers there).
+/// What a file type is called in errors.
+fn describe(t: std::fs::FileType) -> &'static str {
+    use std::os::unix::fs::FileTypeExt;
+    if t.is_file() {
+        "regular file"
+    } else if t.is_dir() {
+        "directory"
+    } else if t.is_symlink() {
+        "symbolic link"
+    } else if t.is_fifo() {
+        "named pipe"
+    } else if t.is_block_device() || t.is_char_device() {
+        "device"
+    } else {
+        "file of unknown type"
+    }
+}
+
+/// Binds the operator socket at `path` with mode 0660. An existing socket file is removed only
+/// when it is stale (connecting is refused: a crashed instance left it); a live server there,
+/// or anything that is not a socket (checked without following symlinks), is an error.
 pub async fn bind(path: &Path) -> Result<UnixListener, ServerError> {
     let err = |action: &'static str| {
         let path = path.to_owned();
@@ -133,11 +188,30 @@ pub async fn bind(path: &Path) -> Result<UnixListener, ServerError> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(err("create directory for"))?;
     }
-    if path.exists() {
-        if UnixStream::connect(path).await.is_ok() {
-            return Err(ServerError::InUse(path.to_owned()));
+    match std::fs::symlink_metadata(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) => return Err(err("inspect")(e)),
+        Ok(meta) => {
+            use std::os::unix::fs::FileTypeExt;
+            if !meta.file_type().is_socket() {
+                return Err(ServerError::NotASocket {
+                    path: path.to_owned(),
+                    found: describe(meta.file_type()),
+                });
+            }
+            match UnixStream::connect(path).await {
+                Ok(_) => return Err(ServerError::InUse(path.to_owned())),
+                Err(e) if e.kind() == std::io::ErrorKind::ConnectionRefused => {
+                    std::fs::remove_file(path).map_err(err("remove stale socket"))?;
+                }
+                Err(source) => {
+                    return Err(ServerError::Unprobeable {
+                        path: path.to_owned(),
+                        source,
+                    });
+                }
+            }
         }
-        std::fs::remove_file(path).map_err(err("remove stale socket"))?;
     }
     let listener = UnixListener::bind(path).map_err(err("bind"))?;
     std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o660))
@@ -154,6 +228,7 @@ pub async fn serve<H: Handler>(
     mut shutdown: watch::Receiver<bool>,
 ) {
     let clients = Arc::new(Semaphore::new(limits.max_clients));
+    let over_limit = Arc::new(Semaphore::new(limits.over_limit_connections));
     loop {
         let accepted = tokio::select! {
             a = listener.accept() => a,
@@ -167,10 +242,7 @@ pub async fn serve<H: Handler>(
                 continue;
             }
         };
-        let Ok(permit) = clients.clone().try_acquire_owned() else {
-            reject(stream, ErrorCode::Busy, "too many operator connections").await;
-            continue;
-        };
+        // Credentials first: even an over-limit connection may execute `stop`.
         match stream.peer_cred() {
             Ok(cred) if policy.allows(cred.uid(), cred.gid()) => {}
             Ok(cred) => {
@@ -193,11 +265,20 @@ pub async fn serve<H: Handler>(
             }
         }
         let handler = handler.clone();
-        let shutdown = shutdown.clone();
-        tokio::spawn(async move {
-            connection(stream, handler, limits, shutdown).await;
-            drop(permit);
-        });
+        if let Ok(permit) = clients.clone().try_acquire_owned() {
+            let shutdown = shutdown.clone();
+            tokio::spawn(async move {
+                connection(stream, handler, limits, shutdown).await;
+                drop(permit);
+            });
+        } else if let Ok(permit) = over_limit.clone().try_acquire_owned() {
+            tokio::spawn(async move {
+                overflow::stop_only(stream, handler, limits).await;
+                drop(permit);
+            });
+        } else {
+            reject(stream, ErrorCode::Busy, overflow::TOO_MANY).await;
+        }
     }
     info!("operator socket closed");
 }
@@ -228,9 +309,26 @@ async fn connection<H: Handler>(
     let mut reader = LineReader::new(read, limits.max_line_bytes);
     let mut tasks = tokio::task::JoinSet::new();
     loop {
+        // Idle: nothing in flight. The sleep restarts with every received line and every
+        // finished request; `next_frame` is cancel-safe (bytes read are kept in its buffer).
+        let idle = tasks.is_empty();
         let frame = tokio::select! {
-            f = reader.next_frame() => f,
+            f = reader.next_frame() => Some(f),
+            Some(_) = tasks.join_next(), if !idle => continue,
+            () = tokio::time::sleep(limits.idle_timeout), if idle => None,
             _ = shutdown.wait_for(|s| *s) => break,
+        };
+        let Some(frame) = frame else {
+            let e = OperatorError::new(
+                ErrorCode::Busy,
+                format!(
+                    "connection idle for {} s without a request; closed (operator.idle_timeout_s)",
+                    limits.idle_timeout.as_secs_f64()
+                ),
+            );
+            let _ = out_tx.send(Reply::err(None, e).to_line()).await;
+            debug!("closing idle operator connection");
+            break;
         };
         let line = match frame {
             Ok(Some(Frame::Line(line))) => line,

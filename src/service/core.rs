@@ -13,13 +13,19 @@ use serde_json::{Value, json};
 use tokio::sync::broadcast::error::RecvError;
 use tokio::time::Instant;
 
+mod acquire;
+mod move_to;
+mod watch;
+
+use super::events::{FriContext, StopReason};
 use super::fanout::Shared;
 use super::pattern::{PatternKind, poses as pattern_poses};
-use super::rt::{RtEvent, RtRequest};
-use super::settle::{AveragedSample, Averager, SettleDetector};
+use super::rt::RtRequest;
+use super::settle::AveragedSample;
 use crate::config::Config;
 use crate::ipc::messages::flags;
 use crate::ipc::{IpcSender, PayloadEstimate as IpcPayload, RobotState};
+use crate::operator::cause::Cause;
 use crate::operator::protocol::{ErrorCode, OperatorError};
 use crate::operator::server::EventSink;
 use crate::persistence::{AppliedPayload, StateStore, StaticSample, Tare};
@@ -139,29 +145,77 @@ impl ServiceCore {
         })
     }
 
+    /// Longest silence of the controller that still counts as connected: 100 ms, or ten
+    /// controller cycles when `friOpen` runs slower than 10 ms.
+    pub fn connection_timeout(&self) -> Duration {
+        Duration::from_secs_f64((10.0 * self.config.fri.cycle_s).max(0.1))
+    }
+
+    /// The newest state, if the controller is connected (a measurement within
+    /// [`Self::connection_timeout`]).
     fn latest(&self) -> Result<RobotState, OperatorError> {
-        self.shared.latest().ok_or_else(|| {
-            err(
+        match self.shared.latest_with_age() {
+            Some((s, age)) if age <= self.connection_timeout() => Ok(s),
+            Some((_, age)) => Err(self.silent_error(age.as_secs_f64())),
+            None => Err(err(
                 ErrorCode::NotReady,
                 "no measurement from the controller yet (is the KRL program running and FRI open?)",
             )
-        })
+            .with_cause(Cause::ControllerSilent {
+                silent_s: f64::INFINITY,
+                fri: None,
+            })),
+        }
     }
 
-    /// The controller's view (KRL status, last drop reason, quality) for error messages.
-    fn fri_diagnosis(&self) -> String {
-        match &self.fri_state {
-            Some(f) => {
-                let s = f();
-                format!(
-                    "; controller: state {:?}, quality {:?}, KRL {:?}, last drop {:?}",
-                    s.measurement.interface.state,
-                    s.measurement.interface.quality,
-                    s.handshake.status,
-                    s.handshake.drop_reason
-                )
-            }
-            None => String::new(),
+    /// The controller's view in its newest measurement (endpoint snapshot), if any.
+    fn fri_context(&self) -> Option<FriContext> {
+        let s = self.fri_state.as_ref().map(|f| f())?;
+        s.valid.then(|| FriContext::of(&s.measurement))
+    }
+
+    /// The error for a controller silent for `silent_s` seconds.
+    fn silent_error(&self, silent_s: f64) -> OperatorError {
+        let fri = self.fri_context();
+        let last = fri.map_or(String::new(), |f| {
+            format!("; last measurement: {}", f.describe())
+        });
+        err(
+            ErrorCode::NotReady,
+            format!(
+                "the controller is silent: no measurement for {silent_s:.3} s (connection timeout {:.3} s){last}",
+                self.connection_timeout().as_secs_f64()
+            ),
+        )
+        .with_cause(Cause::ControllerSilent { silent_s, fri })
+    }
+
+    /// The error for a stop by the loop.
+    fn stop_error(reason: StopReason, fri: FriContext) -> OperatorError {
+        let cause = match reason {
+            StopReason::Operator => Cause::OperatorStop,
+            StopReason::Collision {
+                link,
+                time_s,
+                residual,
+            } => Cause::Collision {
+                link,
+                time_s,
+                residual,
+            },
+            StopReason::ObserverFault { fault } => Cause::ObserverFault {
+                fault: fault.to_string(),
+                fri,
+            },
+        };
+        err(ErrorCode::Aborted, reason.describe()).with_cause(cause)
+    }
+
+    /// The error for a stopped state seen before (or without) its event.
+    fn stopped_error(&self) -> OperatorError {
+        match self.shared.last_stop() {
+            Some((reason, fri)) => Self::stop_error(reason, fri),
+            None => err(ErrorCode::Aborted, "the arm is held").with_cause(Cause::Held),
         }
     }
 
@@ -191,7 +245,7 @@ impl ServiceCore {
             })
         });
         json!({
-            "connected": latest.is_some(),
+            "connected": self.latest().is_ok(),
             "fri": fri,
             "cycle": latest.map(|s| s.cycle),
             "time_s": latest.map(|s| s.time_s),
@@ -301,180 +355,6 @@ impl ServiceCore {
         }
         let (armed, t, g) = self.persistent(|s| (s.armed, s.thresholds, s.gains));
         Ok(json!({"armed": armed, "thresholds": t, "gains": g}))
-    }
-
-    /// Moves to `target` in command mode and waits for the arrival; aborts on a collision,
-    /// a stop, or loss of command mode.
-    /// With `baseline`, a residual change beyond the workflow threshold aborts the move.
-    pub async fn move_to(
-        &self,
-        target: [f64; 7],
-        baseline: Option<[f64; 7]>,
-    ) -> Result<(), OperatorError> {
-        let thresholds = self.persistent(|s| s.thresholds);
-        let latest = self.latest()?;
-        if latest.flags & flags::STOPPED != 0 {
-            return Err(err(
-                ErrorCode::NotReady,
-                "the arm is stopped (operator stop or collision reaction); `resume` first",
-            ));
-        }
-        let limits = self.model.limits();
-        for (j, t) in target.iter().enumerate() {
-            let inside = (limits.position_min[j]..=limits.position_max[j]).contains(t);
-            if !inside {
-                return Err(err(
-                    ErrorCode::InvalidArguments,
-                    format!("target of joint {} outside its limits", j + 1),
-                ));
-            }
-        }
-        let mut states = self.shared.subscribe_states();
-        let mut events = self.shared.subscribe_events();
-        self.send(RtRequest::MoveTo(target))?;
-        let mut start = Instant::now();
-        let mut seen_moving = false;
-        let mut ended_at = None;
-        let mut retries = 0;
-        loop {
-            let timeout = if seen_moving {
-                MOVE_TIMEOUT_S
-            } else {
-                MOVE_START_TIMEOUT_S
-            };
-            let deadline = start + Duration::from_secs_f64(timeout);
-            tokio::select! {
-                s = states.recv() => match s {
-                    Ok(s) => {
-                        if s.flags & flags::STOPPED != 0 {
-                            return Err(err(ErrorCode::Aborted, "stopped during the move"));
-                        }
-                        if let Some(b) = baseline
-                            && let Some(j) = (0..7).find(|&j| (s.residual[j] - b[j]).abs() > WORKFLOW_THRESHOLD_FACTOR * thresholds[j])
-                        {
-                            let _ = self.send(RtRequest::Stop);
-                            return Err(err(ErrorCode::Aborted, format!("residual of joint {} changed by more than twice its threshold during the move: contact? (arm stopped; `resume` to continue)", j + 1)));
-                        }
-                        if s.flags & flags::MOVING != 0 {
-                            seen_moving = true;
-                        } else if seen_moving {
-                            // The set-point is at the target; wait for the arm to follow.
-                            let off = (0..7).map(|j| (s.q[j] - target[j]).abs()).fold(0.0, f64::max);
-                            let ended = *ended_at.get_or_insert(s.time_s);
-                            if off <= ARRIVAL_TOLERANCE {
-                                return Ok(());
-                            }
-                            if s.time_s - ended > ARRIVAL_TIMEOUT_S {
-                                return Err(err(ErrorCode::Failed, format!("the arm stayed {off:.4} rad from the target")));
-                            }
-                        }
-                    }
-                    Err(RecvError::Lagged(_)) => {}
-                    Err(RecvError::Closed) => return Err(err(ErrorCode::NotReady, "the FRI loop has stopped")),
-                },
-                e = events.recv() => match e {
-                    Ok(RtEvent::Collision(c)) => {
-                        await_stopped_state(&mut states).await;
-                        return Err(err(ErrorCode::Aborted, format!("collision detected (link {}) at {:.3} s", c.link, c.time_s)));
-                    }
-                    Ok(RtEvent::Stopped { collision, .. }) => {
-                        await_stopped_state(&mut states).await;
-                        return Err(err(ErrorCode::Aborted, if collision { "stopped by the collision reaction" } else { "stopped by the operator" }));
-                    }
-                    Ok(RtEvent::MoveAborted { .. }) => {
-                        let stopped = self.shared.latest().is_some_and(|s| s.flags & flags::STOPPED != 0);
-                        if stopped || retries >= MOVE_RETRIES {
-                            return Err(err(ErrorCode::Aborted, format!("move aborted (command mode lost or stop){}", self.fri_diagnosis())));
-                        }
-                        // Command mode was lost (e.g. a burst of missed answers): the loop
-                        // re-requests it; drive the move again from where the arm is.
-                        retries += 1;
-                        tracing::warn!(retries, diagnosis = %self.fri_diagnosis(), "command mode lost during a move; retrying");
-                        self.send(RtRequest::MoveTo(target))?;
-                        seen_moving = false;
-                        ended_at = None;
-                        start = Instant::now();
-                    }
-                    _ => {}
-                },
-                _ = tokio::time::sleep_until(deadline) => {
-                    return Err(err(ErrorCode::NotReady, if seen_moving {
-                        "the move did not finish in time".to_owned()
-                    } else {
-                        "command mode was not entered (check the KRL program, quality and drives)".to_owned()
-                    }));
-                }
-            }
-        }
-    }
-
-    /// Waits for settling (bounded by `estimation.settle_timeout_s`) and averages one window.
-    /// `baseline` is the residual at the workflow's start: a change larger than the thresholds
-    /// aborts (contact during a workflow that may carry an uncompensated payload).
-    pub async fn acquire(
-        &self,
-        settle: bool,
-        duration_s: f64,
-        baseline: Option<[f64; 7]>,
-    ) -> Result<(AveragedSample, f64), OperatorError> {
-        let e = &self.config.estimation;
-        let cycle_s = self.config.fri.cycle_s;
-        let window = (e.settle_window_s / cycle_s).round() as usize;
-        let average_cycles = ((duration_s / cycle_s).round() as usize).max(1);
-        let mut detector = SettleDetector::new(window, e.settle_velocity, e.settle_torque_std);
-        let mut states = self.shared.subscribe_states();
-        let mut events = self.shared.subscribe_events();
-        let thresholds = self.persistent(|s| s.thresholds);
-        let started = Instant::now();
-        let mut settle_time = 0.0;
-        let mut settling = settle;
-        let mut settle_start_t = None;
-        let mut avg = Averager::default();
-        let wall_limit = Duration::from_secs_f64(e.settle_timeout_s + duration_s + 10.0);
-        loop {
-            tokio::select! {
-                s = states.recv() => match s {
-                    Ok(s) => {
-                        if s.flags & flags::STOPPED != 0 {
-                            return Err(err(ErrorCode::Aborted, "stopped while sampling"));
-                        }
-                        if let Some(b) = baseline
-                            && let Some(j) = (0..7).find(|&j| (s.residual[j] - b[j]).abs() > WORKFLOW_THRESHOLD_FACTOR * thresholds[j])
-                        {
-                            return Err(err(ErrorCode::Aborted, format!("residual of joint {} changed by more than its threshold: contact?", j + 1)));
-                        }
-                        if settling {
-                            let t0 = *settle_start_t.get_or_insert(s.time_s);
-                            settle_time = s.time_s - t0;
-                            if detector.push(&s) || settle_time >= e.settle_timeout_s {
-                                settling = false;
-                            }
-                            continue;
-                        }
-                        avg.push(&s);
-                        if avg.len() >= average_cycles {
-                            let Some(sample) = avg.finish() else { continue };
-                            return Ok((sample, settle_time));
-                        }
-                    }
-                    Err(RecvError::Lagged(n)) => {
-                        // The sample must be contiguous: start over.
-                        tracing::warn!(lost = n, "sampling fell behind; restarting the window");
-                        avg = Averager::default();
-                    }
-                    Err(RecvError::Closed) => return Err(err(ErrorCode::NotReady, "the FRI loop has stopped")),
-                },
-                ev = events.recv() => {
-                    if let Ok(RtEvent::Stopped { .. }) = ev {
-                        await_stopped_state(&mut states).await;
-                        return Err(err(ErrorCode::Aborted, "stopped while sampling"));
-                    }
-                },
-                _ = tokio::time::sleep_until(started + wall_limit) => {
-                    return Err(err(ErrorCode::NotReady, "no measurements while sampling"));
-                }
-            }
-        }
     }
 
     /// Drives the pattern, one averaged sample per pose, then returns to the start pose.
@@ -674,9 +554,20 @@ impl ServiceCore {
     }
 
     /// `stop`.
+    ///
+    /// The stop is latched in the loop at once. When the controller is silent nothing is being
+    /// commanded (the controller stops the arm itself when our answers are missing) and the
+    /// reply says so: the latched stop holds the arm when the controller returns.
     pub fn stop(&self) -> Result<Value, OperatorError> {
         self.send(RtRequest::Stop)?;
-        Ok(json!({"stopped": true}))
+        Ok(match self.latest() {
+            Ok(_) => json!({"stopped": true, "controller": "connected"}),
+            Err(e) => json!({
+                "stopped": true,
+                "controller": "silent",
+                "note": format!("{}; nothing is commanded while the controller is silent, and the stop holds the arm when it returns", e.message),
+            }),
+        })
     }
 
     /// `resume`.
@@ -685,7 +576,8 @@ impl ServiceCore {
         Ok(json!({"stopped": false}))
     }
 
-    /// `record`: static samples or a per-cycle log, as CSV at `path`.
+    /// `record`: static samples or a per-cycle log, as CSV in a new file `path` of the
+    /// recording directory (`state.record_dir`, see [`crate::recordings`]).
     pub async fn record(
         &self,
         path: &str,
@@ -695,7 +587,19 @@ impl ServiceCore {
         events: &EventSink,
     ) -> Result<Value, OperatorError> {
         use crate::operator::protocol::RecordKind;
-        let io = |e: std::io::Error| err(ErrorCode::Failed, format!("cannot write {path}: {e}"));
+        use crate::recordings::{RecordDir, RecordError};
+        let refuse = |e: RecordError| {
+            let code = if e.is_request_error() {
+                ErrorCode::InvalidArguments
+            } else {
+                ErrorCode::Failed
+            };
+            err(code, e.to_string())
+        };
+        let dir = RecordDir::open(&self.config.state.record_dir()).map_err(refuse)?;
+        let full = dir.check_free(path).map_err(refuse)?;
+        let shown = full.to_string_lossy().into_owned();
+        let io = |e: std::io::Error| err(ErrorCode::Failed, format!("cannot write {shown}: {e}"));
         match kind {
             RecordKind::Samples => {
                 let n = count.unwrap_or(1);
@@ -721,8 +625,11 @@ impl ServiceCore {
                 for r in &rows {
                     text.push_str(&static_csv_row(r));
                 }
-                std::fs::write(path, text).map_err(io)?;
-                Ok(json!({"rows": rows.len(), "path": path}))
+                // Created only now, exclusively: the name may have been taken while sampling.
+                let (mut file, _) = dir.create(path).map_err(refuse)?;
+                use std::io::Write;
+                file.write_all(text.as_bytes()).map_err(io)?;
+                Ok(json!({"rows": rows.len(), "path": shown}))
             }
             RecordKind::Log => {
                 let d = duration_s.unwrap_or(1.0);
@@ -733,7 +640,7 @@ impl ServiceCore {
                     ));
                 }
                 let mut states = self.shared.subscribe_states();
-                let file = std::fs::File::create(path).map_err(io)?;
+                let (file, _) = dir.create(path).map_err(refuse)?;
                 let mut w = std::io::BufWriter::new(file);
                 use std::io::Write;
                 let mut header = String::from("cycle,time_s,flags");
@@ -774,46 +681,7 @@ impl ServiceCore {
                     rows += 1;
                 }
                 w.flush().map_err(io)?;
-                Ok(json!({"rows": rows, "path": path, "lost": lost}))
-            }
-        }
-    }
-
-    /// `watch`: streams events (and optionally states) until the client goes away.
-    pub async fn watch(
-        &self,
-        state_every: Option<u32>,
-        sink: &EventSink,
-    ) -> Result<Value, OperatorError> {
-        let mut events = self.shared.subscribe_events();
-        let mut states = self.shared.subscribe_states();
-        let every = state_every.map(|e| u64::from(e.max(1)));
-        loop {
-            let keep = tokio::select! {
-                e = events.recv() => match e {
-                    Ok(RtEvent::Collision(c)) => sink.send("collision", json!({
-                        "time_s": c.time_s, "cycle": c.cycle, "link": c.link,
-                        "joints": (0..7).filter(|j| c.joints_mask & (1 << j) != 0).map(|j| j + 1).collect::<Vec<_>>(),
-                        "residual": c.residual,
-                    })).await,
-                    Ok(RtEvent::Stopped { cycle, collision }) => sink.send("stopped", json!({"cycle": cycle, "reason": if collision { "collision" } else { "operator" }})).await,
-                    Ok(RtEvent::Resumed { cycle }) => sink.send("resumed", json!({"cycle": cycle})).await,
-                    Ok(RtEvent::MoveAborted { cycle }) => sink.send("move-aborted", json!({"cycle": cycle})).await,
-                    Ok(RtEvent::State(_)) | Err(RecvError::Lagged(_)) => true,
-                    Err(RecvError::Closed) => false,
-                },
-                s = states.recv(), if every.is_some() => match s {
-                    Ok(s) if every.is_some_and(|e| s.cycle % e == 0) => sink.send("state", json!({
-                        "cycle": s.cycle, "time_s": s.time_s, "q": s.q, "tau": s.tau, "residual": s.residual, "flags": s.flags,
-                    })).await,
-                    Ok(_) | Err(RecvError::Lagged(_)) => true,
-                    Err(RecvError::Closed) => false,
-                },
-                // Notice a vanished client even when nothing happens.
-                _ = tokio::time::sleep(Duration::from_millis(200)) => !sink.is_closed(),
-            };
-            if !keep {
-                return Ok(json!({"watch": "ended"}));
+                Ok(json!({"rows": rows, "path": shown, "lost": lost}))
             }
         }
     }

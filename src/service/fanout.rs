@@ -6,9 +6,11 @@
 use std::sync::mpsc::Receiver;
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
 
 use tokio::sync::broadcast;
 
+use super::events::{FriContext, StopReason};
 use super::rt::RtEvent;
 use crate::ipc::{IpcSender, RobotState};
 
@@ -20,7 +22,8 @@ const EVENT_BACKLOG: usize = 256;
 /// The loop's output as seen by the tokio side.
 #[derive(Debug)]
 pub struct Shared {
-    latest: Mutex<Option<RobotState>>,
+    latest: Mutex<Option<(RobotState, Instant)>>,
+    last_stop: Mutex<Option<(StopReason, FriContext)>>,
     states: broadcast::Sender<RobotState>,
     events: broadcast::Sender<RtEvent>,
 }
@@ -30,6 +33,7 @@ impl Shared {
     pub fn new() -> Arc<Self> {
         Arc::new(Self {
             latest: Mutex::new(None),
+            last_stop: Mutex::new(None),
             states: broadcast::channel(STATE_BACKLOG).0,
             events: broadcast::channel(EVENT_BACKLOG).0,
         })
@@ -37,7 +41,23 @@ impl Shared {
 
     /// The newest cycle's state; `None` before the first measurement.
     pub fn latest(&self) -> Option<RobotState> {
-        match self.latest.lock() {
+        self.latest_with_age().map(|(s, _)| s)
+    }
+
+    /// The newest cycle's state and how long ago (host clock) it was handed over.
+    pub fn latest_with_age(&self) -> Option<(RobotState, Duration)> {
+        let latest = match self.latest.lock() {
+            Ok(g) => *g,
+            Err(p) => *p.into_inner(),
+        };
+        latest.map(|(s, at)| (s, at.elapsed()))
+    }
+
+    /// Why the loop last stopped the arm, and the controller's view then. Stored before the
+    /// state of the same cycle is delivered, so a reader that sees a stopped state finds its
+    /// reason here.
+    pub fn last_stop(&self) -> Option<(StopReason, FriContext)> {
+        match self.last_stop.lock() {
             Ok(g) => *g,
             Err(p) => *p.into_inner(),
         }
@@ -55,12 +75,19 @@ impl Shared {
 
     fn deliver(&self, e: RtEvent) {
         if let RtEvent::State(s) = e {
+            let now = Some((s, Instant::now()));
             match self.latest.lock() {
-                Ok(mut g) => *g = Some(s),
-                Err(p) => *p.into_inner() = Some(s),
+                Ok(mut g) => *g = now,
+                Err(p) => *p.into_inner() = now,
             }
             let _ = self.states.send(s);
         } else {
+            if let RtEvent::Stopped { reason, fri, .. } = e {
+                match self.last_stop.lock() {
+                    Ok(mut g) => *g = Some((reason, fri)),
+                    Err(p) => *p.into_inner() = Some((reason, fri)),
+                }
+            }
             let _ = self.events.send(e);
         }
     }

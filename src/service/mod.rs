@@ -9,6 +9,7 @@
 
 pub mod core;
 pub mod cyclekit;
+pub mod events;
 pub mod fanout;
 pub mod handler;
 pub mod pattern;
@@ -86,6 +87,8 @@ impl RunningService {
             .load_payload()
             .context("reloading the applied payload")?;
         let tare = store.load_tare().context("reloading the tare")?;
+        // Created (and checked) now so a bad `state.record_dir` stops the start, not a recording.
+        crate::recordings::RecordDir::open(&config.state.record_dir())?;
 
         let (ipc_thread, ipc) = if config.iceoryx2.enabled {
             let names = IpcNames {
@@ -172,6 +175,7 @@ impl RunningService {
         let limits = ServerLimits {
             max_line_bytes: c.max_line_bytes,
             max_clients: c.max_clients,
+            idle_timeout: std::time::Duration::from_secs_f64(c.idle_timeout_s),
             ..ServerLimits::default()
         };
         server::serve(

@@ -6,6 +6,18 @@
 //! state: operator requests arrive through a bounded queue read with `try_recv`, and each cycle's
 //! [`RobotState`] plus events leave through a bounded queue written with `try_send` (dropped and
 //! counted when the reader is behind).
+//!
+//! Rules for the collision monitor (each has a test in this module or `tests/`):
+//! - the reaction is executed whenever the monitor is armed and an onset occurs: arming, an
+//!   operator resume and a report-only onset all leave the supervisor ready for the next one;
+//! - disarmed, detections are neither reacted to nor reported as collisions;
+//! - time comes from the controller's sequence counter: a gap the observer can bridge
+//!   (≤ [`MAX_BRIDGED_CYCLES`]) is integrated with its true length, a longer gap or a
+//!   controller restart restarts the monitor (never integrated as one period);
+//! - when the controller leaves command mode during a move it brakes the arm; the monitor
+//!   restarts each cycle until the arm is at rest, then warms up;
+//! - while the monitor warms up or waits, the published residual is NaN and flagged
+//!   [`flags::RESIDUAL_INVALID`], and no collision can be reported.
 
 use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
 
@@ -16,6 +28,8 @@ use fri::wire::{InterfaceState, Measurement, Quality};
 use nalgebra::SVector;
 use safety::{CollisionMonitor, ObserverInput, PayloadCompensation, ReactionRequest, StopCause};
 
+pub use super::events::RtEvent;
+use super::events::{AbortReason, FriContext, ResyncReason, StopReason};
 use crate::ipc::messages::flags;
 use crate::ipc::{CollisionEvent, RobotState};
 use crate::motion::{JointMove, MotionLimits};
@@ -25,6 +39,21 @@ type V7 = SVector<f64, 7>;
 /// Cycles between two handshake requests of the same kind (retry period when the controller does
 /// not follow), at 1 ms: 0.5 s.
 const REQUEST_RETRY_CYCLES: u64 = 500;
+/// Longest gap the observer integrates across, controller cycles (its time-step band is 3 T).
+pub const MAX_BRIDGED_CYCLES: u32 = 3;
+/// Joint speed below which the arm counts as at rest after the controller braked it, rad/s.
+const REST_SPEED: f64 = 0.02;
+/// Consecutive cycles at rest that end the wait after a loss of command mode.
+const REST_CYCLES: u32 = 20;
+/// Longest wait for rest after a loss of command mode, cycles (2 s at 1 kHz).
+const MAX_REST_WAIT_CYCLES: u32 = 2000;
+
+/// Waiting for the arm to come to rest after the controller braked it.
+#[derive(Debug, Clone, Copy)]
+struct RestWait {
+    quiet: u32,
+    waited: u32,
+}
 
 /// Requests from the operator side to the loop.
 #[derive(Debug)]
@@ -43,33 +72,6 @@ pub enum RtRequest {
     Arm(bool),
     /// Replace the collision monitor (new thresholds or gains); the payload is carried over.
     ReplaceMonitor(Box<CollisionMonitor<7>>),
-}
-
-/// What the loop reports to the non-real-time side.
-#[allow(clippy::large_enum_variant)] // by value on purpose: no allocation per cycle
-#[derive(Debug, Clone, Copy)]
-pub enum RtEvent {
-    /// The state of one cycle.
-    State(RobotState),
-    /// A collision onset.
-    Collision(CollisionEvent),
-    /// The loop stopped the arm (collision reaction or operator stop); `collision` tells which.
-    Stopped {
-        /// Cycle of the stop.
-        cycle: u64,
-        /// True for a collision reaction, false for an operator stop or a fault.
-        collision: bool,
-    },
-    /// The arm resumed (reaction ended or operator resume).
-    Resumed {
-        /// Cycle of the resume.
-        cycle: u64,
-    },
-    /// A commanded move ended without reaching its target (stop, or command mode lost).
-    MoveAborted {
-        /// Cycle of the abort.
-        cycle: u64,
-    },
 }
 
 /// Settings of the processor.
@@ -97,6 +99,9 @@ pub struct CycleProcessor {
     cycle: u64,
     time_s: f64,
     last_seq: Option<u16>,
+    previous_q: Option<V7>,
+    rest_wait: Option<RestWait>,
+    residual_valid: bool,
     in_command: bool,
     command_wanted: bool,
     pending_target: Option<V7>,
@@ -104,6 +109,7 @@ pub struct CycleProcessor {
     setpoint: Option<V7>,
     operator_stop: bool,
     reaction_hold: bool,
+    resume_when_clear: bool,
     interrupted_target: Option<V7>,
     last_request_cycle: u64,
     last_residual: V7,
@@ -124,10 +130,11 @@ impl CycleProcessor {
     /// A processor with its monitor, request queue and event queue.
     pub fn new(
         settings: ProcessorSettings,
-        monitor: CollisionMonitor<7>,
+        mut monitor: CollisionMonitor<7>,
         requests: Receiver<RtRequest>,
         events: SyncSender<RtEvent>,
     ) -> Self {
+        monitor.set_armed(settings.armed);
         Self {
             armed: settings.armed,
             settings,
@@ -139,6 +146,9 @@ impl CycleProcessor {
             cycle: 0,
             time_s: 0.0,
             last_seq: None,
+            previous_q: None,
+            rest_wait: None,
+            residual_valid: false,
             in_command: false,
             command_wanted: false,
             pending_target: None,
@@ -146,6 +156,7 @@ impl CycleProcessor {
             setpoint: None,
             operator_stop: false,
             reaction_hold: false,
+            resume_when_clear: false,
             interrupted_target: None,
             last_request_cycle: 0,
             last_residual: V7::zeros(),
@@ -164,6 +175,24 @@ impl CycleProcessor {
         self.cycle
     }
 
+    /// Whether the arm is held (operator stop or collision reaction): no move is driven.
+    pub fn is_holding(&self) -> bool {
+        self.operator_stop || self.reaction_hold
+    }
+
+    /// Whether the collision reaction is armed.
+    pub fn is_armed(&self) -> bool {
+        self.armed
+    }
+
+    /// Whether a commanded move is running or pending.
+    pub fn is_moving(&self) -> bool {
+        self.motion
+            .as_ref()
+            .is_some_and(|(m, _, _)| !m.is_braking())
+            || self.pending_target.is_some()
+    }
+
     fn emit(&mut self, e: RtEvent) {
         if let Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) = self.events.try_send(e)
         {
@@ -171,7 +200,7 @@ impl CycleProcessor {
         }
     }
 
-    fn handle_requests(&mut self) {
+    fn handle_requests(&mut self, fri: FriContext) {
         // A bounded number per cycle keeps the cycle time bounded.
         for _ in 0..8 {
             let Ok(request) = self.requests.try_recv() else {
@@ -180,11 +209,11 @@ impl CycleProcessor {
             match request {
                 RtRequest::MoveTo(target) => {
                     let target = V7::from(target);
-                    if !self.operator_stop && !self.reaction_hold {
+                    if !self.is_holding() {
                         self.pending_target = Some(target);
                         self.command_wanted = true;
                     } else {
-                        self.emit(RtEvent::MoveAborted { cycle: self.cycle });
+                        self.abort_move(AbortReason::Held, fri);
                     }
                 }
                 RtRequest::ReleaseCommandMode => {
@@ -192,20 +221,21 @@ impl CycleProcessor {
                 }
                 RtRequest::Stop => {
                     self.operator_stop = true;
+                    self.resume_when_clear = false;
                     self.brake();
                     self.emit(RtEvent::Stopped {
                         cycle: self.cycle,
-                        collision: false,
+                        reason: StopReason::Operator,
+                        fri,
                     });
                 }
                 RtRequest::Resume => {
-                    let was = self.operator_stop || self.reaction_hold;
-                    self.operator_stop = false;
-                    self.reaction_hold = false;
-                    self.interrupted_target = None;
-                    self.monitor.acknowledge();
-                    if was {
-                        self.emit(RtEvent::Resumed { cycle: self.cycle });
+                    // Into a contact that is still present, the resume waits for its release
+                    // (the old reaction would otherwise be replaced by a new one at once).
+                    if self.armed && self.monitor.detector().in_contact() {
+                        self.resume_when_clear = true;
+                    } else {
+                        self.resume(fri);
                     }
                 }
                 RtRequest::SetPayload(p) => {
@@ -216,14 +246,41 @@ impl CycleProcessor {
                         self.payload = p;
                     }
                 }
-                RtRequest::Arm(on) => self.armed = on,
+                RtRequest::Arm(on) => {
+                    // Arming starts from a live reaction whatever happened while disarmed.
+                    self.monitor.set_armed(on);
+                    self.armed = on;
+                }
                 RtRequest::ReplaceMonitor(mut m) => {
                     let _ =
                         m.set_payload(self.payload.clone().unwrap_or(PayloadCompensation::None));
+                    m.set_armed(self.armed);
                     self.monitor = m;
                 }
             }
         }
+    }
+
+    /// Ends every hold (operator stop, reaction) and readies the reaction for the next onset.
+    fn resume(&mut self, _fri: FriContext) {
+        let was = self.is_holding();
+        self.resume_when_clear = false;
+        self.operator_stop = false;
+        self.reaction_hold = false;
+        self.interrupted_target = None;
+        // The hold ended here: the supervisor must be ready for the next onset.
+        self.monitor.release_reaction();
+        if was {
+            self.emit(RtEvent::Resumed { cycle: self.cycle });
+        }
+    }
+
+    fn abort_move(&mut self, reason: AbortReason, fri: FriContext) {
+        self.emit(RtEvent::MoveAborted {
+            cycle: self.cycle,
+            reason,
+            fri,
+        });
     }
 
     /// Brakes the current move (if any) and forgets pending ones.
@@ -236,20 +293,36 @@ impl CycleProcessor {
         }
     }
 
-    fn apply_reaction(&mut self, request: ReactionRequest<7>) {
+    fn apply_reaction(&mut self, request: ReactionRequest<7>, fri: FriContext) {
         match request {
             ReactionRequest::Stop(cause)
             | ReactionRequest::Pause { cause, .. }
             | ReactionRequest::HoldForOperator(cause) => {
-                let collision = matches!(cause, StopCause::Collision(_));
-                if self.armed && (self.settings.react || !collision) {
-                    self.reaction_hold = true;
-                    self.brake();
-                    self.emit(RtEvent::Stopped {
-                        cycle: self.cycle,
-                        collision,
-                    });
+                let reason = match cause {
+                    StopCause::Collision(e) => {
+                        let mut residual = [0.0; 7];
+                        residual.copy_from_slice(e.residual.as_slice());
+                        StopReason::Collision {
+                            link: (e.isolated_link + 1) as u32,
+                            time_s: self.time_s,
+                            residual,
+                        }
+                    }
+                    StopCause::Fault(fault) => StopReason::ObserverFault { fault },
+                };
+                if matches!(reason, StopReason::Collision { .. }) && !self.settings.react {
+                    // Report only: nothing is held, so the supervisor must not wait for a
+                    // release that never comes.
+                    self.monitor.release_reaction();
+                    return;
                 }
+                self.reaction_hold = true;
+                self.brake();
+                self.emit(RtEvent::Stopped {
+                    cycle: self.cycle,
+                    reason,
+                    fri,
+                });
             }
             ReactionRequest::Resume => {
                 if self.reaction_hold {
@@ -266,6 +339,18 @@ impl CycleProcessor {
         }
     }
 
+    /// Controller cycles since the previous accepted measurement, from its sequence counter;
+    /// `None` for a new epoch (first measurement or controller restart).
+    fn elapsed_cycles(&mut self, msr: &Measurement) -> Option<u32> {
+        let seq = msr.header.send_seq_count;
+        let previous = self.last_seq.replace(seq)?;
+        match seq.wrapping_sub(previous) {
+            0 => None,
+            d if d <= 1000 => Some(u32::from(d)),
+            _ => None,
+        }
+    }
+
     /// Processes one accepted measurement: `handshake` is the KRL report in it and `request` the
     /// handshake request we currently send. Returns the command wish for the session and, when
     /// needed, a new handshake request.
@@ -275,33 +360,38 @@ impl CycleProcessor {
         handshake: HandshakeStatus,
         request: HandshakeRequest,
     ) -> (DesiredCommand, Option<(RequestKind, KrlStrategy)>) {
-        // Time from the controller's sequence counter, never from the host clock.
-        let seq = msr.header.send_seq_count;
-        let elapsed = match self.last_seq {
-            Some(prev) => {
-                let d = seq.wrapping_sub(prev);
-                // A restart or a long gap counts as one period; the observer resynchronises.
-                if d == 0 || d > 100 { 1 } else { d }
-            }
-            None => 1,
-        };
-        self.last_seq = Some(seq);
-        let dt = self.settings.cycle_s * f64::from(elapsed);
+        let fri = FriContext::of(msr);
+        let elapsed = self.elapsed_cycles(msr);
+        let first = self.cycle == 0;
         self.cycle += 1;
+        // Time from the controller's sequence counter, never from the host clock.
+        let cycles = elapsed.unwrap_or(1);
+        let dt = self.settings.cycle_s * f64::from(cycles);
         self.time_s += dt;
+        let restarted = elapsed.is_none() && !first;
+        if restarted {
+            self.resynchronise(ResyncReason::ControllerRestarted, fri);
+        } else if cycles > MAX_BRIDGED_CYCLES {
+            self.resynchronise(ResyncReason::Gap { cycles }, fri);
+        }
 
-        self.handle_requests();
+        self.handle_requests(fri);
 
+        self.follow_command_mode(msr, restarted, fri);
         let q = V7::from(msr.data.msr_jnt_pos);
+        self.wait_for_rest(&q, dt);
         let tau = V7::from(msr.data.msr_jnt_trq);
         let gravity = V7::from(msr.data.gravity);
         let mut input = ObserverInput::new(q, tau, dt);
         input.controller_gravity = Some(gravity);
         let out = self.monitor.step(&input);
+        self.residual_valid = out.live && self.rest_wait.is_none();
         self.last_residual = out.observer.residual;
         self.observer_fault = out.observer.status.fault().is_some();
-        self.collision_now = self.monitor.detector().in_contact();
-        if let Some(safety::Detection::Onset(e)) = out.detection {
+        self.collision_now = self.residual_valid && self.monitor.detector().in_contact();
+        if let Some(safety::Detection::Onset(e)) = out.detection
+            && self.armed
+        {
             let mut residual = [0.0; 7];
             residual.copy_from_slice(e.residual.as_slice());
             self.emit(RtEvent::Collision(CollisionEvent {
@@ -313,20 +403,49 @@ impl CycleProcessor {
             }));
         }
         if let Some(r) = out.reaction {
-            self.apply_reaction(r);
+            self.apply_reaction(r, fri);
+        }
+        if self.resume_when_clear && !self.monitor.detector().in_contact() {
+            self.resume(fri);
         }
 
-        let (desired, new_request) = self.command(msr, handshake, request);
+        let (desired, new_request) = self.command(msr, handshake, request, fri);
         self.publish(msr, &out.observer.velocity);
         (desired, new_request)
     }
 
-    fn command(
-        &mut self,
-        msr: &Measurement,
-        handshake: HandshakeStatus,
-        request: HandshakeRequest,
-    ) -> (DesiredCommand, Option<(RequestKind, KrlStrategy)>) {
+    /// Restarts the collision monitor and says why.
+    fn resynchronise(&mut self, reason: ResyncReason, fri: FriContext) {
+        self.monitor.restart();
+        self.emit(RtEvent::Resynchronised {
+            cycle: self.cycle,
+            reason,
+            fri,
+        });
+    }
+
+    /// While the controller brakes the arm after a loss of command mode, keeps the monitor
+    /// restarting; the wait ends once the arm was at rest for [`REST_CYCLES`] (or after
+    /// [`MAX_REST_WAIT_CYCLES`]), and the monitor's warm-up follows.
+    fn wait_for_rest(&mut self, q: &V7, dt: f64) {
+        let speed = self
+            .previous_q
+            .map_or(0.0, |p| (q - p).amax() / dt.max(f64::EPSILON));
+        self.previous_q = Some(*q);
+        let Some(w) = &mut self.rest_wait else {
+            return;
+        };
+        w.waited += 1;
+        w.quiet = if speed < REST_SPEED { w.quiet + 1 } else { 0 };
+        if w.quiet >= REST_CYCLES || w.waited >= MAX_REST_WAIT_CYCLES {
+            self.rest_wait = None;
+        }
+        self.monitor.restart();
+    }
+
+    /// Follows the controller's command mode; runs before the monitor steps, so that the
+    /// cycle in which the controller starts braking is already treated as such.
+    fn follow_command_mode(&mut self, msr: &Measurement, restarted: bool, fri: FriContext) {
         let in_command = msr.interface.state == InterfaceState::Command && msr.drives_powered();
         if in_command && !self.in_command {
             // Entry: the session's step limits start from the mirrored set-point.
@@ -335,15 +454,40 @@ impl CycleProcessor {
         }
         if !in_command && self.in_command {
             // Command mode lost (controller dropped it, or we released it).
-            if self.motion.is_some() || self.pending_target.is_some() {
-                self.emit(RtEvent::MoveAborted { cycle: self.cycle });
+            let moving = self.motion.is_some() || self.pending_target.is_some();
+            if moving {
+                let reason = if restarted {
+                    AbortReason::ControllerRestarted
+                } else {
+                    AbortReason::CommandModeLost
+                };
+                self.abort_move(reason, fri);
+                // The controller brakes the arm itself: its deceleration is no contact.
+                self.rest_wait = Some(RestWait {
+                    quiet: 0,
+                    waited: 0,
+                });
+                self.emit(RtEvent::Resynchronised {
+                    cycle: self.cycle,
+                    reason: ResyncReason::CommandModeLost,
+                    fri,
+                });
             }
             self.motion = None;
             self.pending_target = None;
             self.command_wanted = self.command_wanted && !self.operator_stop;
         }
         self.in_command = in_command;
+    }
 
+    fn command(
+        &mut self,
+        msr: &Measurement,
+        handshake: HandshakeStatus,
+        request: HandshakeRequest,
+        fri: FriContext,
+    ) -> (DesiredCommand, Option<(RequestKind, KrlStrategy)>) {
+        let in_command = self.in_command;
         let new_request = self.handshake(msr, handshake, request);
 
         let mut desired = DesiredCommand::default();
@@ -352,23 +496,23 @@ impl CycleProcessor {
         }
         if self.motion.is_none()
             && let (Some(target), Some(start)) = (self.pending_target, self.setpoint)
-            && !self.operator_stop
-            && !self.reaction_hold
+            && !self.is_holding()
         {
             self.pending_target = None;
             match JointMove::new(start, target, self.settings.limits) {
                 Ok(m) => self.motion = Some((m, self.time_s, target)),
-                Err(_) => self.emit(RtEvent::MoveAborted { cycle: self.cycle }),
+                Err(_) => self.abort_move(AbortReason::Unplannable, fri),
             }
         }
         if let Some((m, t0, _)) = &self.motion {
             let t = self.time_s - *t0;
             self.setpoint = Some(m.sample(t).position);
             if m.is_finished(t) {
-                if m.is_braking() {
-                    self.emit(RtEvent::MoveAborted { cycle: self.cycle });
-                }
+                let braked = m.is_braking();
                 self.motion = None;
+                if braked {
+                    self.abort_move(AbortReason::Braked, fri);
+                }
             }
         }
         desired.joint_position = self.setpoint.map(|s| {
@@ -426,13 +570,19 @@ impl CycleProcessor {
         if self.observer_fault {
             f |= flags::OBSERVER_FAULT;
         }
+        if !self.residual_valid {
+            f |= flags::RESIDUAL_INVALID;
+        }
         if self.motion.is_some() || self.pending_target.is_some() {
             f |= flags::MOVING;
         }
         let mut qd = [0.0; 7];
         qd.copy_from_slice(velocity.as_slice());
-        let mut residual = [0.0; 7];
-        residual.copy_from_slice(self.last_residual.as_slice());
+        // An unsynchronised observer's value is not published: NaN, flagged.
+        let mut residual = [f64::NAN; 7];
+        if self.residual_valid {
+            residual.copy_from_slice(self.last_residual.as_slice());
+        }
         let state = RobotState {
             cycle: self.cycle,
             time_s: self.time_s,

@@ -20,7 +20,9 @@
 //! - command flags: those of the selected strategy while in monitor mode, frozen at command-mode
 //!   entry and unchanged until the controller leaves command mode;
 //! - step limits in command mode: every joint set-point element moves at most
-//!   `max_joint_step` and every added-torque element at most `max_added_torque_step` per reply;
+//!   `max_joint_step` and every added-torque element at most `max_added_torque_step` per reply,
+//!   measured from the set-point the controller holds (our previous reply when the measurement
+//!   reflects it, else the controller's own, extrapolated set-point);
 //! - NaN/Inf in the application's values never reach the wire: the element keeps its previous
 //!   value (set-point, torque) or a neutral one (0 torque, default gains, KRL value 0).
 //!
@@ -380,11 +382,13 @@ impl Session {
         // From here on the application has acted on this measurement (even if encoding fails).
         self.arrival_answered = true;
         let (source, received_at, mirrored) = (*source, *received_at, !Self::commanding(msr));
+        let reflected = self.previous_send_seq == Some(msr.header.refl_seq_count);
         let mut cmd = build(
             &self.config,
             &mut self.stats.limits,
             &mut self.frozen_flags,
             self.have_reply.then_some(&self.last_reply),
+            reflected,
             self.selected_strategy,
             &self.request,
             msr,

@@ -9,13 +9,15 @@ use super::{
 use crate::handshake::{HandshakeRequest, KrlStrategy};
 use crate::wire::{Command, CommandFlags, InterfaceState, JOINTS, Measurement};
 
-/// The command for `msr`, with every rule applied (header counters filled by the caller).
+/// The command for `msr`, with every rule applied (header counters filled by the caller);
+/// `reflected` tells whether `msr` reflects `previous` (the controller received it).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn build(
     config: &SessionConfig,
     limits: &mut LimitCounters,
     frozen_flags: &mut Option<CommandFlags>,
     previous: Option<&Command>,
+    reflected: bool,
     selected_strategy: KrlStrategy,
     request: &HandshakeRequest,
     msr: &Measurement,
@@ -42,8 +44,15 @@ pub(super) fn build(
 
     let mirrored = msr.mirrored_joint_position();
     let (jnt_pos, add_jnt_trq) = if commanding {
-        // Step limits start from the previous reply; at entry that is the mirrored set-point.
-        let base_pos = previous.map_or(mirrored, |p| p.jnt_pos);
+        // Step limits start from the set-point the controller holds now: our previous reply
+        // when the measurement reflects it (the controller applied it), otherwise the
+        // controller's own set-point cmdJntPos + cmdJntPosFriOffset, which after missed answers
+        // is its extrapolation of our last step. Stepping from our unreceived reply instead
+        // would pull the controller back by the bridged steps: a set-point jump.
+        let base_pos = match previous {
+            Some(p) if reflected => p.jnt_pos,
+            _ => mirrored,
+        };
         let base_trq = previous.map_or([0.0; JOINTS], |p| p.add_jnt_trq);
         let target = desired.joint_position.unwrap_or(base_pos);
         let pos = limit_steps(

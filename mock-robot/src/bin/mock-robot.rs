@@ -154,8 +154,14 @@ fn main() -> Result<()> {
         truth_log: args.truth_log.clone(),
     };
     let mut sim = sim;
-    let summary =
-        server::run(&mut sim, &socket, &server_config, &STOP).context("controller loop failed")?;
+    let summary = server::run(
+        &mut sim,
+        &socket,
+        &server_config,
+        &STOP,
+        &server::RunCounters::default(),
+    )
+    .context("controller loop failed")?;
     let stats = sim.statistics();
     let counters = sim.receive_counters();
     tracing::info!(

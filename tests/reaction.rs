@@ -5,6 +5,8 @@
 //! Safety rule under test: whenever the monitor is armed and a detection occurs, the configured
 //! reaction is executed (the arm is held), whatever happened before — including detections and
 //! faults while disarmed (issue 10, item 1).
+// The pick pose is written in rounded radians of 30° and 60° on purpose (as in other tests).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::approx_constant)]
 
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 

@@ -180,9 +180,10 @@ pub struct OperatorError {
     pub code: ErrorCode,
     /// What went wrong and, where possible, what to do.
     pub message: String,
-    /// The typed cause with the controller's view at the time, where the service knows it.
+    /// The typed cause with the controller's view at the time, where the service knows it
+    /// (boxed: it is large and every `Result<_, OperatorError>` would carry its size).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub cause: Option<super::cause::Cause>,
+    pub cause: Option<Box<super::cause::Cause>>,
 }
 
 impl OperatorError {
@@ -197,7 +198,7 @@ impl OperatorError {
 
     /// This error with its typed cause.
     pub fn with_cause(mut self, cause: super::cause::Cause) -> Self {
-        self.cause = Some(cause);
+        self.cause = Some(Box::new(cause));
         self
     }
 }

@@ -601,3 +601,117 @@ async fn fri_ctl_talks_to_the_running_service() {
     drop(driver.stop());
     h.stop().await;
 }
+
+/// Collects every event of a `watch` (with every `state_every`-th state) on its own connection.
+fn collect_watch(
+    mut watcher: Client,
+    state_every: Option<u32>,
+) -> std::sync::Arc<std::sync::Mutex<Vec<(String, Value)>>> {
+    let events = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let sink = events.clone();
+    tokio::spawn(async move {
+        let _ = watcher
+            .call(Command::Watch { state_every }, |e, d| {
+                sink.lock().unwrap().push((e.to_owned(), d.clone()));
+            })
+            .await;
+    });
+    events
+}
+
+/// The controller dies mid-workflow: the tare fails at once with `controller-silent`, `status`
+/// says disconnected, and `stop` says that nothing is commanded.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_vanished_controller_fails_the_workflow_at_once_with_its_cause() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = test_config(dir.path());
+    let h = Harness::start(config, dir).await;
+    let driver = MockDriver::spawn(sim(false, 17), h.fri, Pacing::RealTime).unwrap();
+    let mut c = h.client().await;
+    wait_connected(&mut c).await;
+    let killer = tokio::spawn(async move {
+        tokio::time::sleep(Duration::from_millis(700)).await;
+        drop(driver.stop());
+    });
+    let started = std::time::Instant::now();
+    let e = call(
+        &mut c,
+        Command::Tare {
+            around: None,
+            poses: Some(6),
+            step_deg: Some(7.0),
+            pattern: None,
+        },
+    )
+    .await
+    .unwrap_err();
+    killer.await.unwrap();
+    assert!(
+        matches!(
+            e.cause.as_deref(),
+            Some(fri_service::operator::cause::Cause::ControllerSilent { .. })
+        ),
+        "{e:?}"
+    );
+    // Not the 120 s move timeout: the silence ends the workflow (loose bound, not a timing).
+    assert!(started.elapsed() < Duration::from_secs(30));
+    let status = call(&mut c, Command::Status).await.unwrap();
+    assert_eq!(status["connected"], false, "{status}");
+    let stop = call(&mut c, Command::Stop).await.unwrap();
+    assert_eq!(stop["controller"], "silent", "{stop}");
+    h.stop().await;
+}
+
+/// After a controller restart no published residual comes from an unsynchronised observer:
+/// it is `null` (NaN, flagged) during the warm-up and small otherwise.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn no_residual_from_an_unsynchronised_observer_is_published() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = test_config(dir.path());
+    let h = Harness::start(config, dir).await;
+    let mut sim_config = sim(false, 19);
+    sim_config.restarts_s = vec![0.5, 1.2];
+    let driver = MockDriver::spawn(sim_config, h.fri, lockstep()).unwrap();
+    let mut c = h.client().await;
+    wait_connected(&mut c).await;
+    let events = collect_watch(h.client().await, Some(1));
+    while driver.cycles() < 2500 {
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    drop(driver.stop());
+    let events = events.lock().unwrap();
+    let mut invalid = 0;
+    let mut valid = 0;
+    for (kind, d) in events.iter() {
+        if kind != "state" {
+            continue;
+        }
+        let invalid_flag = d["flags"].as_u64().unwrap()
+            & u64::from(fri_service::ipc::messages::flags::RESIDUAL_INVALID)
+            != 0;
+        for r in d["residual"].as_array().unwrap() {
+            match r.as_f64() {
+                Some(x) => {
+                    assert!(!invalid_flag, "a value while flagged invalid: {d}");
+                    assert!(x.abs() < 20.0, "residual {x} Nm without contact: {d}");
+                    valid += 1;
+                }
+                None => {
+                    assert!(invalid_flag, "null residual without the flag: {d}");
+                    invalid += 1;
+                }
+            }
+        }
+    }
+    assert!(
+        valid > 1000 && invalid > 0,
+        "valid {valid}, invalid {invalid}"
+    );
+    assert!(
+        events.iter().any(|(k, d)| k == "monitor-restarted"
+            && d["reason"]["kind"] == "controller-restarted"),
+        "no restart seen"
+    );
+    drop(events);
+    h.stop().await;
+}

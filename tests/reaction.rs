@@ -5,13 +5,13 @@
 //! Safety rule under test: whenever the monitor is armed and a detection occurs, the configured
 //! reaction is executed (the arm is held), whatever happened before — including detections and
 //! faults while disarmed (issue 10, item 1).
-// The pick pose is written in rounded radians of 30° and 60° on purpose (as in other tests).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::approx_constant)]
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 
 use dynamics::{Data, Model, compute_generalized_gravity, payload_gravity_regressor};
 use fri::handshake::{HandshakeRequest, HandshakeStatus};
+use fri::session::Arrival;
 use fri::wire::{InterfaceState, Measurement, Quality};
 use fri_service::config::{Config, ReactionPolicy};
 use fri_service::motion::MotionLimits;
@@ -25,7 +25,15 @@ use safety::PayloadCompensation;
 type V7 = SVector<f64, 7>;
 
 /// The paper's pick pose, rad.
-const PICK: [f64; 7] = [0.0, 0.5236, 0.0, -1.0472, 0.0, 1.0472, 0.0];
+const PICK: [f64; 7] = [
+    0.0,
+    std::f64::consts::FRAC_PI_6,
+    0.0,
+    -std::f64::consts::FRAC_PI_3,
+    0.0,
+    std::f64::consts::FRAC_PI_3,
+    0.0,
+];
 
 /// A real payload at the flange: 3 kg, 0.12 m along z of frame 7.
 const PAYLOAD_KG: f64 = 3.0;
@@ -39,6 +47,8 @@ struct Rig {
     data: Data<7>,
     q: V7,
     seq: u16,
+    /// Sequence number of the previous measurement.
+    previous_seq: Option<u16>,
     /// Payload really carried by the arm.
     carried: bool,
     /// External torque applied to the arm, Nm.
@@ -81,6 +91,7 @@ impl Rig {
             model,
             q: V7::from(PICK),
             seq: 100,
+            previous_seq: None,
             carried: false,
             external: V7::zeros(),
             braking: None,
@@ -122,8 +133,19 @@ impl Rig {
     /// One cycle; the arm follows the set-point exactly. Returns the cycle's events.
     fn cycle(&mut self) -> Vec<RtEvent> {
         let m = self.measurement();
+        // How a session places it: a jump back or beyond the window is a restart.
+        let arrival = match self.previous_seq.replace(self.seq) {
+            None => Arrival::First,
+            Some(p) => match self.seq.wrapping_sub(p) {
+                d @ 1..=1000 => Arrival::Continued {
+                    cycles: u32::from(d),
+                },
+                _ => Arrival::Restart,
+            },
+        };
         let (desired, _) = self.processor.on_measurement(
             &m,
+            arrival,
             HandshakeStatus::NOT_REPORTED,
             HandshakeRequest::NONE,
         );

@@ -6,7 +6,7 @@ use std::net::SocketAddr;
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::time::Instant;
 
-use fri::session::{Session, SessionConfig};
+use fri::session::{Arrival, Session, SessionConfig};
 use fri::wire::{CMD_LEN, MSR_LEN, Measurement};
 
 use super::build_monitor;
@@ -99,6 +99,7 @@ impl CycleKit {
         };
         let (desired, request) = self.processor.on_measurement(
             &m,
+            self.session.last_arrival().unwrap_or(Arrival::First),
             self.session.handshake_status(),
             self.session.current_request(),
         );

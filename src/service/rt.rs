@@ -23,7 +23,7 @@ use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
 
 use fri::endpoint::{CycleHook, CycleOutput};
 use fri::handshake::{HandshakeRequest, HandshakeStatus, KrlStatus, KrlStrategy, RequestKind};
-use fri::session::DesiredCommand;
+use fri::session::{Arrival, DesiredCommand};
 use fri::wire::{InterfaceState, Measurement, Quality};
 use nalgebra::SVector;
 use safety::{CollisionMonitor, ObserverInput, PayloadCompensation, ReactionRequest, StopCause};
@@ -98,7 +98,6 @@ pub struct CycleProcessor {
     dropped_events: u64,
     cycle: u64,
     time_s: f64,
-    last_seq: Option<u16>,
     previous_q: Option<V7>,
     rest_wait: Option<RestWait>,
     residual_valid: bool,
@@ -145,7 +144,6 @@ impl CycleProcessor {
             dropped_events: 0,
             cycle: 0,
             time_s: 0.0,
-            last_seq: None,
             previous_q: None,
             rest_wait: None,
             residual_valid: false,
@@ -339,29 +337,19 @@ impl CycleProcessor {
         }
     }
 
-    /// Controller cycles since the previous accepted measurement, from its sequence counter;
-    /// `None` for a new epoch (first measurement or controller restart).
-    fn elapsed_cycles(&mut self, msr: &Measurement) -> Option<u32> {
-        let seq = msr.header.send_seq_count;
-        let previous = self.last_seq.replace(seq)?;
-        match seq.wrapping_sub(previous) {
-            0 => None,
-            d if d <= 1000 => Some(u32::from(d)),
-            _ => None,
-        }
-    }
-
-    /// Processes one accepted measurement: `handshake` is the KRL report in it and `request` the
-    /// handshake request we currently send. Returns the command wish for the session and, when
-    /// needed, a new handshake request.
+    /// Processes one accepted measurement: `arrival` is how the session placed it in the
+    /// controller's sequence, `handshake` the KRL report in it and `request` the handshake
+    /// request we currently send. Returns the command wish for the session and, when needed, a
+    /// new handshake request.
     pub fn on_measurement(
         &mut self,
         msr: &Measurement,
+        arrival: Arrival,
         handshake: HandshakeStatus,
         request: HandshakeRequest,
     ) -> (DesiredCommand, Option<(RequestKind, KrlStrategy)>) {
         let fri = FriContext::of(msr);
-        let elapsed = self.elapsed_cycles(msr);
+        let elapsed = arrival.elapsed_cycles();
         let first = self.cycle == 0;
         self.cycle += 1;
         // Time from the controller's sequence counter, never from the host clock.
@@ -615,8 +603,12 @@ impl CycleHook for CycleProcessor {
         if !state.valid {
             return;
         }
-        let (desired, request) =
-            self.on_measurement(&state.measurement, state.handshake, state.request);
+        let (desired, request) = self.on_measurement(
+            &state.measurement,
+            state.arrival.unwrap_or(Arrival::First),
+            state.handshake,
+            state.request,
+        );
         output.desired = desired;
         output.request = request;
     }

@@ -167,9 +167,6 @@ pub const LOG_DURATION_S: Range = Range::new(MIN_CYCLE_S, 3600.0, "s");
 /// Number of static samples of a `record`.
 pub const RECORD_COUNT: Range = Range::new(1.0, 1000.0, "");
 
-/// Longest `record` path, bytes (Linux PATH_MAX).
-pub const MAX_PATH_BYTES: usize = 4096;
-
 /// `watch` state period, cycles (100000 is 100 s at 1 ms).
 pub const STATE_EVERY: Range = Range::new(1.0, 100_000.0, "cycles");
 

@@ -485,11 +485,10 @@ impl Config {
             op.max_clients,
             Range::new(1.0, 4096.0, ""),
         )?;
-        let idle = self.operator.idle_timeout_s;
-        check(
+        in_range(
             "operator.idle_timeout_s",
-            idle.is_finite() && (1.0..=3600.0).contains(&idle),
-            "must be between 1 and 3600 s",
+            op.idle_timeout_s,
+            Range::new(1.0, 3600.0, "s"),
         )?;
         let ids = Range::new(0.0, MAX_ALLOWED_IDS as f64, "entries");
         count_in_range("operator.allowed_uids", op.allowed_uids.len(), ids)?;

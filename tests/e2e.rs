@@ -679,7 +679,8 @@ async fn no_residual_from_an_unsynchronised_observer_is_published() {
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
     drop(driver.stop());
-    let events = events.lock().unwrap();
+    // A copy: no std mutex guard may be held across the `await` below.
+    let events = events.lock().unwrap().clone();
     let mut invalid = 0;
     let mut valid = 0;
     for (kind, d) in events.iter() {

@@ -180,7 +180,8 @@ pub struct OperatorError {
     pub code: ErrorCode,
     /// What went wrong and, where possible, what to do.
     pub message: String,
-    /// The typed cause with the controller's view at the time, where the service knows it.
+    /// The typed cause with the controller's view at the time, where the service knows it
+    /// (boxed: it is large and every `Result<_, OperatorError>` would carry its size).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cause: Option<Box<super::cause::Cause>>,
 }

@@ -43,12 +43,15 @@ pub(super) fn print(command: &Command, r: &Value, out: &mut dyn Write) -> io::Re
 
 fn status(r: &Value, out: &mut dyn Write) -> io::Result<()> {
     writeln!(out, "connected      {}", r["connected"])?;
-    if let Some(f) = r["fri"].as_object() {
+    // Index the Value, not the Map: a missing key must print `null`, not panic.
+    let f = &r["fri"];
+    if f.is_object() {
         writeln!(
             out,
             "fri            state {} quality {} krl {} (last drop: {})",
             f["state"], f["quality"], f["krl_status"], f["drop_reason"]
         )?;
+        rejections(&f["statistics"]["rejections"], out)?;
     }
     writeln!(out, "cycle          {}  t = {} s", r["cycle"], r["time_s"])?;
     writeln!(out, "q        rad   {}", vec_str(&r["q"], 4))?;
@@ -61,14 +64,16 @@ fn status(r: &Value, out: &mut dyn Write) -> io::Result<()> {
         "flags          command_mode {} moving {} stopped {} collision {} observer_fault {}",
         r["command_mode"], r["moving"], r["stopped"], r["collision"], r["observer_fault"]
     )?;
-    match r["payload"].as_object() {
-        Some(p) => writeln!(
+    let p = &r["payload"];
+    if p.is_object() {
+        writeln!(
             out,
             "payload        {} kg at ({}) m, frame 7",
             p["mass"],
             vec_str(&p["com"], 4)
-        )?,
-        None => writeln!(out, "payload        none")?,
+        )?;
+    } else {
+        writeln!(out, "payload        none")?;
     }
     writeln!(
         out,
@@ -76,6 +81,25 @@ fn status(r: &Value, out: &mut dyn Write) -> io::Result<()> {
         r["monitor"]["armed"],
         vec_str(&r["monitor"]["thresholds"], 1)
     )
+}
+
+/// The session's rejected datagrams by reason (`fri::session::RejectionCounters`), non-zero
+/// ones only, largest first.
+fn rejections(counters: &Value, out: &mut dyn Write) -> io::Result<()> {
+    let Some(map) = counters.as_object() else {
+        return Ok(());
+    };
+    let mut nonzero: Vec<(&str, u64)> = map
+        .iter()
+        .filter_map(|(k, v)| v.as_u64().filter(|n| *n > 0).map(|n| (k.as_str(), n)))
+        .collect();
+    if nonzero.is_empty() {
+        return writeln!(out, "rejected       none");
+    }
+    nonzero.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(b.0)));
+    let total = nonzero.iter().fold(0u64, |t, (_, n)| t.saturating_add(*n));
+    let list: Vec<String> = nonzero.iter().map(|(k, n)| format!("{k} {n}")).collect();
+    writeln!(out, "rejected       {total} datagrams: {}", list.join(", "))
 }
 
 fn estimate(r: &Value, out: &mut dyn Write) -> io::Result<()> {
@@ -113,4 +137,50 @@ fn estimate(r: &Value, out: &mut dyn Write) -> io::Result<()> {
         "not applied (use --apply or `fri-ctl apply-payload`)"
     };
     writeln!(out, "{applied}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn status_text(r: &Value) -> String {
+        let mut out = Vec::new();
+        print(&Command::Status, r, &mut out).unwrap();
+        String::from_utf8(out).unwrap()
+    }
+
+    fn with_rejections(rejections: Value) -> Value {
+        json!({
+            "connected": true,
+            "fri": {"state": "Monitor", "quality": "Perfect", "statistics": {"rejections": rejections}},
+            "monitor": {"armed": true},
+        })
+    }
+
+    #[test]
+    fn status_shows_the_non_zero_rejection_counters() {
+        let text = status_text(&with_rejections(json!({
+            "empty": 0, "truncated": 2, "unexpected_source": 40, "duplicate": 0,
+        })));
+        let line = text
+            .lines()
+            .find(|l| l.starts_with("rejected"))
+            .unwrap_or_else(|| panic!("no rejection line in\n{text}"));
+        assert!(line.contains("42 datagrams"), "{line}");
+        assert!(
+            line.contains("unexpected_source 40") && line.contains("truncated 2"),
+            "{line}"
+        );
+        assert!(
+            !line.contains("duplicate") && !line.contains("empty"),
+            "{line}"
+        );
+    }
+
+    #[test]
+    fn status_says_none_rejected() {
+        let text = status_text(&with_rejections(json!({"truncated": 0})));
+        assert!(text.contains("rejected       none"), "{text}");
+    }
 }

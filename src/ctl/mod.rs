@@ -112,7 +112,9 @@ pub enum OperatorCommand {
         #[arg(long, allow_negative_numbers = true)]
         mass: f64,
         /// Centre of mass in frame 7, m: X,Y,Z.
-        #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+        // allow_hyphen_values: "-0.1,0,0" is a value list, not a number, so allow_negative_numbers
+        // would take it for a flag.
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
         com: Vec<f64>,
         /// Connection options.
         #[command(flatten)]
@@ -125,10 +127,10 @@ pub enum OperatorCommand {
         /// What to do.
         action: CollisionArg,
         /// Per-joint thresholds, Nm: 7 comma-separated values.
-        #[arg(long, value_delimiter = ',')]
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
         thresholds: Option<Vec<f64>>,
         /// Per-joint observer gains, 1/s: 7 comma-separated values.
-        #[arg(long, value_delimiter = ',')]
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
         gains: Option<Vec<f64>>,
         /// Connection options.
         #[command(flatten)]
@@ -171,7 +173,7 @@ pub enum OperatorCommand {
 #[derive(Debug, Clone, Args)]
 pub struct PatternArgs {
     /// Pick pose, rad: 7 comma-separated values (default: the current pose).
-    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub around: Option<Vec<f64>>,
     /// Number of poses (default from the service config, 10).
     #[arg(long)]
@@ -459,5 +461,45 @@ async fn run_async(command: Command, conn: &Conn, out: &mut Stdout) -> u8 {
     match printed.and_then(|()| out.flush()) {
         Ok(()) => code,
         Err(_) => failed(out),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    /// The operator subcommands as a top-level parser, as `fri-ctl` flattens them.
+    #[derive(Debug, Parser)]
+    struct Cli {
+        #[command(subcommand)]
+        command: OperatorCommand,
+    }
+
+    fn parse(args: &[&str]) -> Result<OperatorCommand, String> {
+        Cli::try_parse_from(std::iter::once("fri-ctl").chain(args.iter().copied()))
+            .map(|c| c.command)
+            .map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn list_arguments_accept_negative_values() {
+        let around = "-0.1,0.5,0,-1.2,0,0.5,0";
+        for args in [
+            vec!["tare", "--around", around],
+            vec!["estimate-payload", "--around", around, "--apply"],
+            vec!["apply-payload", "--mass", "1", "--com", "-0.01,0,-0.02"],
+            vec!["collision", "configure", "--thresholds", "-1,6,6,6,6,6,6"],
+            vec!["collision", "configure", "--gains", "-400,1,1,1,1,1,1"],
+        ] {
+            let cmd = parse(&args).unwrap_or_else(|e| panic!("{args:?}: {e}"));
+            assert!(check_lists(&cmd).is_ok(), "{args:?}");
+        }
+        let OperatorCommand::Collision { thresholds, .. } =
+            parse(&["collision", "configure", "--thresholds", "-1,6,6,6,6,6,-6"]).unwrap()
+        else {
+            panic!("not a collision command");
+        };
+        assert_eq!(thresholds.unwrap()[6], -6.0);
     }
 }

@@ -15,3 +15,4 @@ pub mod operator;
 pub mod persistence;
 pub mod recordings;
 pub mod service;
+pub mod stdio;

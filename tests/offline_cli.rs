@@ -305,6 +305,54 @@ fn bad_inputs_fail_with_clear_errors() {
     }
 }
 
+/// Copies a fixture with the cell at (1-based data `row`, `column`) replaced by `value`.
+fn corrupted(name: &str, row: usize, column: &str, value: &str, dir: &std::path::Path) -> String {
+    let text = std::fs::read_to_string(fixture(name)).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
+    let col = lines[0].split(',').position(|h| h == column).unwrap();
+    let mut cells: Vec<&str> = lines[row].split(',').collect();
+    cells[col] = value;
+    lines[row] = cells.join(",");
+    let path = dir.join(format!("{column}-row{row}-{name}"));
+    std::fs::write(&path, lines.join("\n") + "\n").unwrap();
+    path.to_string_lossy().into_owned()
+}
+
+#[test]
+fn implausible_values_name_the_file_row_column_and_range() {
+    let dir = tempfile::tempdir().unwrap();
+    let q = corrupted("lwr4_loaded_q10.csv", 3, "q2", "1e308", dir.path());
+    let e = err_text(&["estimate", "--samples", &q]);
+    for n in [
+        q.as_str(),
+        "row 3",
+        "`q2`",
+        "1e308",
+        "[-2.1044, 2.1044] rad",
+        "joint limits",
+    ] {
+        assert!(e.contains(n), "`{n}` not in {e}");
+    }
+    // Just inside the limit (120° = 2.0944 rad) is fine.
+    let edge = corrupted("lwr4_loaded_q10.csv", 3, "q2", "2.0944", dir.path());
+    let v = ok_json(&["estimate", "--samples", &edge, "--json"]);
+    assert!(v["mass"].is_number());
+    let tau = corrupted("lwr4_tare_q10.csv", 2, "tau4", "-5e9", dir.path());
+    let e = err_text(&[
+        "estimate",
+        "--samples",
+        &fixture("lwr4_loaded_q10.csv"),
+        "--tare",
+        &tau,
+    ]);
+    for n in [tau.as_str(), "row 2", "`tau4`", "[-200, 200] Nm"] {
+        assert!(e.contains(n), "`{n}` not in {e}");
+    }
+    let g = corrupted("lwr4_unloaded_workspace.csv", 1, "g7", "1e300", dir.path());
+    let e = err_text(&["calibrate", "--samples", &g, "--out", "/nonexistent/c.json"]);
+    assert!(e.contains("row 1") && e.contains("`g7`"), "{e}");
+}
+
 /// Writes the paper's q_B sweep (joint 1 chirp, q6 = −π/2) of the loaded LWR as a log CSV,
 /// 15 s at 200 Hz, σ = 0.05 Nm noise (deterministic pseudo-noise, no RNG dependency).
 fn write_sweep_log(path: &std::path::Path, fixed: [f64; 6]) {
@@ -408,6 +456,19 @@ fn estimate_motion_on_generated_sweeps() {
     assert!(e.contains("one tare log per loaded log"), "{e}");
     let e = err_text(&["estimate-motion", "--log", &fixture("lwr4_loaded_q10.csv")]);
     assert!(e.contains("no column `t`"), "{e}");
+    // An implausible joint value in a log is named with its row.
+    let text = std::fs::read_to_string(&paths[1]).unwrap();
+    let bad = dir.join("bad.csv");
+    let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
+    // Column 1 is q1 (header t,q1,..).
+    let mut cells: Vec<&str> = lines[5].split(',').collect();
+    cells[1] = "1e308";
+    lines[5] = cells.join(",");
+    std::fs::write(&bad, lines.join("\n") + "\n").unwrap();
+    let e = err_text(&["estimate-motion", "--log", bad.to_str().unwrap()]);
+    for n in ["bad.csv", "row 5", "`q1`", "joint limits"] {
+        assert!(e.contains(n), "`{n}` not in {e}");
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -27,6 +27,29 @@ pub enum EstimatorError {
         /// Column name, e.g. `tau3`.
         column: String,
     },
+    /// A value is finite but outside what the robot model allows (a unit mix-up, a corrupted
+    /// file).
+    #[error(
+        "row {row} (1-based, after the header), column `{column}` = {} {unit} is outside the \
+         allowed range [{}, {}] {unit} ({source_of_range}); fix or drop that row",
+        number(*.value), number(*.min), number(*.max)
+    )]
+    OutOfRange {
+        /// 1-based data row.
+        row: usize,
+        /// Column name, e.g. `q2`.
+        column: String,
+        /// The value found, in `unit`.
+        value: f64,
+        /// Smallest accepted value, in `unit`.
+        min: f64,
+        /// Largest accepted value, in `unit`.
+        max: f64,
+        /// `rad` or `Nm`.
+        unit: &'static str,
+        /// Where the range comes from, e.g. "the robot model's joint limits".
+        source_of_range: &'static str,
+    },
     /// The data has a different number of joints than the robot model.
     #[error(
         "wrong column count: {detail}; the robot model has {joints} joints and the CSV needs q1..q{joints}, tau1..tau{joints}, g1..g{joints}"
@@ -108,4 +131,19 @@ pub enum EstimatorError {
     /// (De)serialising JSON/TOML failed.
     #[error("{0}")]
     Format(String),
+}
+
+/// A number for messages: up to 4 decimals without trailing zeros, exponent form when huge or
+/// tiny (1e308 must not print 309 digits).
+fn number(v: f64) -> String {
+    if v != 0.0 && !(1e-3..1e6).contains(&v.abs()) {
+        return format!("{v:e}");
+    }
+    let s = format!("{v:.4}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".to_owned()
+    } else {
+        s.to_owned()
+    }
 }

@@ -12,7 +12,8 @@
 //! - [`coefficients`] and [`expr`]: the coefficient-set workflow (eqs. 21–28) and its file format;
 //! - [`motion`]: full inertial estimation from trajectories (eq. 45);
 //! - [`poses`]: pose design with predicted uncertainty;
-//! - [`samples`]: static-sample CSV and validation; [`lsq`]: least squares with covariance;
+//! - [`samples`]: static-sample CSV and validation; [`plausible`]: recorded values against the
+//!   robot model's limits; [`lsq`]: least squares with covariance;
 //! - [`basis`]: numerical gravity base parameters; [`filter`]: zero-phase Butterworth and
 //!   differentiation; [`sim`]: synthetic data for tests and studies.
 //!
@@ -28,6 +29,7 @@ pub mod expr;
 pub mod filter;
 pub mod lsq;
 pub mod motion;
+pub mod plausible;
 pub mod poses;
 pub mod samples;
 pub mod sim;

@@ -5,7 +5,7 @@ mod common;
 
 use std::io::{BufRead, BufReader, Read};
 use std::net::{SocketAddr, UdpSocket};
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, ChildStderr, Command, Stdio};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -13,12 +13,13 @@ use std::time::{Duration, Instant};
 use common::{measurement_datagram, mirrored_set_point};
 use fri::wire::CommandPacket;
 
-/// Starts the monitor on an ephemeral port and returns it with its bound address.
-fn start(extra: &[&str]) -> (Child, SocketAddr) {
+/// Starts the monitor on an ephemeral port and returns it with its bound address and the rest
+/// of its stderr.
+fn start(extra: &[&str], stdout: Stdio) -> (Child, SocketAddr, BufReader<ChildStderr>) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_fri-monitor"))
         .args(["--bind", "127.0.0.1:0", "--timeout-ms", "20"])
         .args(extra)
-        .stdout(Stdio::piped())
+        .stdout(stdout)
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
@@ -37,7 +38,7 @@ fn start(extra: &[&str]) -> (Child, SocketAddr) {
             panic!("monitor exited before listening: {status}");
         }
         if let Some(addr) = line.trim().strip_prefix("fri-monitor listening on ") {
-            return (child, addr.parse().unwrap());
+            return (child, addr.parse().unwrap(), stderr);
         }
     }
 }
@@ -73,7 +74,7 @@ fn play_controller(target: SocketAddr, stop: Arc<AtomicBool>) -> u32 {
 }
 
 fn run_against_peer(extra: &[&str]) -> (String, u32) {
-    let (mut child, addr) = start(extra);
+    let (mut child, addr, _) = start(extra, Stdio::piped());
     let stop = Arc::new(AtomicBool::new(false));
     let peer = {
         let stop = Arc::clone(&stop);
@@ -150,4 +151,26 @@ fn bad_arguments_fail_with_a_message() {
         .unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--every"));
+}
+
+#[test]
+fn a_full_stdout_is_reported_not_a_panic() {
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .unwrap();
+    let (mut child, addr, mut stderr) = start(&["--every", "1", "--count", "50"], full.into());
+    let stop = Arc::new(AtomicBool::new(false));
+    let peer = {
+        let stop = Arc::clone(&stop);
+        std::thread::spawn(move || play_controller(addr, stop))
+    };
+    let mut err = String::new();
+    stderr.read_to_string(&mut err).unwrap();
+    let status = child.wait().unwrap();
+    stop.store(true, Ordering::Release);
+    peer.join().unwrap();
+    assert_ne!(status.code(), Some(101), "panicked: {err}");
+    assert!(!status.success(), "{err}");
+    assert!(err.contains("cannot write to stdout"), "{err}");
 }

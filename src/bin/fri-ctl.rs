@@ -4,8 +4,9 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use fri_service::ctl::{self, OperatorCommand};
+use fri_service::ctl::{self, EXIT_FAILED, OperatorCommand};
 use fri_service::offline::{self, OfflineCommand};
+use fri_service::stdio::{Stdout, clap_exit, stderr_line};
 
 /// Command-line client of the KUKA LWR 4+ FRI service.
 #[derive(Debug, Parser)]
@@ -26,19 +27,32 @@ enum Group {
     Operator(OperatorCommand),
 }
 
+/// Exit status of a failed offline command.
+const EXIT_OFFLINE_FAILED: u8 = 1;
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
-    let mut stdout = std::io::stdout().lock();
-    let result = match &cli.group {
-        Group::Offline(cmd) => offline::run(cmd, &mut stdout),
-        // Operator commands choose their own exit codes (see `fri_service::ctl`).
-        Group::Operator(cmd) => return ctl::run(cmd),
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => return ExitCode::from(clap_exit(&e, EXIT_FAILED)),
     };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::FAILURE
-        }
+    let mut out = Stdout::new();
+    let (code, failed) = match &cli.group {
+        Group::Offline(cmd) => match offline::run(cmd, &mut out) {
+            Ok(()) => (0, EXIT_OFFLINE_FAILED),
+            // An error that is a failed write to stdout is reported as such below.
+            Err(_) if out.failure().is_some() => (EXIT_OFFLINE_FAILED, EXIT_OFFLINE_FAILED),
+            Err(e) => {
+                stderr_line(format_args!("error: {e:#}"));
+                return ExitCode::from(EXIT_OFFLINE_FAILED);
+            }
+        },
+        // Operator commands choose their own exit codes (see `fri_service::ctl`) and report
+        // their own stdout failures.
+        Group::Operator(cmd) => return ExitCode::from(ctl::run(cmd, &mut out)),
+    };
+    // Flushes the last partial line; the first stdout failure of the run decides.
+    match out.finish() {
+        Some(f) => ExitCode::from(f.exit_code(failed)),
+        None => ExitCode::from(code),
     }
 }

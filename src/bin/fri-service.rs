@@ -1,5 +1,6 @@
 //! `fri-service`: the on-robot daemon (`run --config FILE.toml`) and the demo (`demo`).
 
+use std::io::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -10,6 +11,7 @@ use fri_service::config::Config;
 use fri_service::demo::driver::Pacing;
 use fri_service::demo::run::{DemoOptions, run as run_demo};
 use fri_service::service::RunningService;
+use fri_service::stdio::{Stdout, clap_exit, stderr_line};
 use tokio::sync::watch;
 
 /// On-robot service for the KUKA LWR 4+ over FRI 1.x: payload estimation and payload-compensated
@@ -46,8 +48,14 @@ enum Cmd {
     },
 }
 
+/// Exit status of every failure (configuration, start, demo, stdout).
+const EXIT_FAILED: u8 = 1;
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => return ExitCode::from(clap_exit(&e, EXIT_FAILED)),
+    };
     let filter = tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
         tracing_subscriber::EnvFilter::new(match cli.command {
             Cmd::Run { .. } => "info",
@@ -58,6 +66,7 @@ fn main() -> ExitCode {
         .with_env_filter(filter)
         .with_writer(std::io::stderr)
         .init();
+    let mut stdout = Stdout::new();
     let result = match cli.command {
         Cmd::Run { config } => run(config),
         Cmd::Demo {
@@ -65,13 +74,15 @@ fn main() -> ExitCode {
             out,
             seed,
             lockstep,
-        } => demo(json, out, seed, lockstep),
+        } => demo(json, out, seed, lockstep, &mut stdout),
     };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::FAILURE
+    // A failed write to stdout is reported as such (quietly for a closed pipe).
+    match (result, stdout.finish()) {
+        (_, Some(f)) => ExitCode::from(f.exit_code(EXIT_FAILED)),
+        (Ok(()), None) => ExitCode::SUCCESS,
+        (Err(e), None) => {
+            stderr_line(format_args!("error: {e:#}"));
+            ExitCode::from(EXIT_FAILED)
         }
     }
 }
@@ -112,7 +123,13 @@ fn run(config: Option<PathBuf>) -> anyhow::Result<()> {
     })
 }
 
-fn demo(json: bool, out: PathBuf, seed: u64, lockstep: bool) -> anyhow::Result<()> {
+fn demo(
+    json: bool,
+    out: PathBuf,
+    seed: u64,
+    lockstep: bool,
+    stdout: &mut Stdout,
+) -> anyhow::Result<()> {
     let opts = DemoOptions {
         out_dir: out,
         seed,
@@ -128,9 +145,10 @@ fn demo(json: bool, out: PathBuf, seed: u64, lockstep: bool) -> anyhow::Result<(
     let rt = runtime()?;
     let report = rt.block_on(run_demo(&opts))?;
     if json {
-        println!("{}", serde_json::to_string(&report)?);
+        writeln!(stdout, "{}", serde_json::to_string(&report)?)?;
     } else {
-        println!(
+        writeln!(
+            stdout,
             "done: payload {:.4} kg (truth {:.4} kg, paper {:.3} kg); compensated detections {:?}, \
              false alarms {} (uncompensated: {:?}, {} false alarms); plots in {}",
             report.payload_estimate.mass,
@@ -141,7 +159,7 @@ fn demo(json: bool, out: PathBuf, seed: u64, lockstep: bool) -> anyhow::Result<(
             report.detections_uncompensated,
             report.false_alarms_uncompensated,
             opts.out_dir.display()
-        );
+        )?;
     }
     Ok(())
 }

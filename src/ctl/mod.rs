@@ -1,17 +1,21 @@
 //! `fri-ctl` operator subcommands: one per operator-socket command, human-readable output with a
 //! progress bar on long operations, `--json` for scripts, and exit codes per error class.
 
+mod human;
+
+use std::io::Write;
 use std::path::PathBuf;
-use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::{Args, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::Value;
+use tokio::sync::Notify;
 
 use crate::config::DEFAULT_SOCKET;
 use crate::operator::client::Client;
 use crate::operator::protocol::{CollisionAction, Command, ErrorCode, OperatorError, RecordKind};
+use crate::stdio::{Stdout, stderr_line};
 
 /// Exit status: success.
 pub const EXIT_OK: u8 = 0;
@@ -28,6 +32,8 @@ pub const EXIT_NOT_READY: u8 = 5;
 pub const EXIT_BUSY: u8 = 6;
 /// Exit status: the request was rejected as invalid (EX_USAGE).
 pub const EXIT_USAGE: u8 = 64;
+/// Exit status: stdout was closed by its reader (e.g. `fri-ctl watch | head -1`).
+pub const EXIT_BROKEN_PIPE: u8 = crate::stdio::EXIT_BROKEN_PIPE;
 
 /// Connection options shared by every operator subcommand.
 #[derive(Debug, Clone, Args)]
@@ -106,7 +112,9 @@ pub enum OperatorCommand {
         #[arg(long, allow_negative_numbers = true)]
         mass: f64,
         /// Centre of mass in frame 7, m: X,Y,Z.
-        #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+        // allow_hyphen_values: "-0.1,0,0" is a value list, not a number, so allow_negative_numbers
+        // would take it for a flag.
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
         com: Vec<f64>,
         /// Connection options.
         #[command(flatten)]
@@ -119,10 +127,10 @@ pub enum OperatorCommand {
         /// What to do.
         action: CollisionArg,
         /// Per-joint thresholds, Nm: 7 comma-separated values.
-        #[arg(long, value_delimiter = ',')]
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
         thresholds: Option<Vec<f64>>,
         /// Per-joint observer gains, 1/s: 7 comma-separated values.
-        #[arg(long, value_delimiter = ',')]
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
         gains: Option<Vec<f64>>,
         /// Connection options.
         #[command(flatten)]
@@ -165,7 +173,7 @@ pub enum OperatorCommand {
 #[derive(Debug, Clone, Args)]
 pub struct PatternArgs {
     /// Pick pose, rad: 7 comma-separated values (default: the current pose).
-    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub around: Option<Vec<f64>>,
     /// Number of poses (default from the service config, 10).
     #[arg(long)]
@@ -333,11 +341,11 @@ fn check_lists(cmd: &OperatorCommand) -> Result<(), String> {
     }
 }
 
-/// Runs one operator subcommand; returns the process exit code.
-pub fn run(cmd: &OperatorCommand) -> ExitCode {
+/// Runs one operator subcommand, writing its output to `out`; returns the process exit status.
+pub fn run(cmd: &OperatorCommand, out: &mut Stdout) -> u8 {
     if let Err(e) = check_lists(cmd) {
-        eprintln!("error: {e}");
-        return ExitCode::from(EXIT_USAGE);
+        stderr_line(format_args!("error: {e}"));
+        return EXIT_USAGE;
     }
     let (command, conn) = cmd.split();
     let runtime = match tokio::runtime::Builder::new_current_thread()
@@ -346,21 +354,21 @@ pub fn run(cmd: &OperatorCommand) -> ExitCode {
     {
         Ok(r) => r,
         Err(e) => {
-            eprintln!("error: cannot start the runtime: {e}");
-            return ExitCode::from(EXIT_FAILED);
+            stderr_line(format_args!("error: cannot start the runtime: {e}"));
+            return EXIT_FAILED;
         }
     };
-    ExitCode::from(runtime.block_on(run_async(command, conn)))
+    runtime.block_on(run_async(command, conn, out))
 }
 
-async fn run_async(command: Command, conn: &Conn) -> u8 {
+async fn run_async(command: Command, conn: &Conn, out: &mut Stdout) -> u8 {
     let mut client = match Client::connect(&conn.socket).await {
         Ok(c) => c,
         Err(e) => {
-            eprintln!(
+            stderr_line(format_args!(
                 "error: cannot reach the service at {}: {e} (is fri-service running? see --socket)",
                 conn.socket.display()
-            );
+            ));
             return EXIT_UNREACHABLE;
         }
     };
@@ -380,10 +388,13 @@ async fn run_async(command: Command, conn: &Conn) -> u8 {
     let json = conn.json;
     let is_watch = matches!(command, Command::Watch { .. });
     let kind = command.clone();
-    let reply = client
-        .call(command, |event, data| {
-            if json {
-                println!("{}", serde_json::json!({"event": event, "data": data}));
+    // A failed event write ends the call: `watch` would otherwise stream into a closed pipe
+    // forever.
+    let stdout_failed = Notify::new();
+    let reply = {
+        let on_event = |event: &str, data: &Value| {
+            let written = if json {
+                writeln!(out, "{}", serde_json::json!({"event": event, "data": data}))
             } else if let Some(b) = &bar {
                 if let (Some(step), Some(of)) = (data["step"].as_u64(), data["of"].as_u64()) {
                     b.set_length(of);
@@ -392,138 +403,103 @@ async fn run_async(command: Command, conn: &Conn) -> u8 {
                 if let Some(p) = data["phase"].as_str() {
                     b.set_message(p.to_owned());
                 }
+                Ok(())
             } else if is_watch {
-                println!("{event}: {data}");
+                writeln!(out, "{event}: {data}")
+            } else {
+                Ok(())
+            };
+            if written.is_err() {
+                stdout_failed.notify_one();
             }
-        })
-        .await;
+        };
+        tokio::select! {
+            r = client.call(command, on_event) => Some(r),
+            () = stdout_failed.notified() => None,
+        }
+    };
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    match reply {
+    let failed = |out: &Stdout| {
+        out.failure()
+            .map_or(EXIT_FAILED, |f| f.exit_code(EXIT_FAILED))
+    };
+    let Some(reply) = reply else {
+        return failed(out);
+    };
+    let (printed, code) = match reply {
         Ok(Ok(result)) => {
-            if json {
-                println!("{result}");
+            let printed = if json {
+                writeln!(out, "{result}")
             } else {
-                print_human(&kind, &result);
-            }
-            EXIT_OK
+                human::print(&kind, &result, out)
+            };
+            (printed, EXIT_OK)
         }
         Ok(Err(e)) => {
-            if json {
-                println!("{}", serde_json::json!({"error": e}));
+            let printed = if json {
+                writeln!(out, "{}", serde_json::json!({"error": e}))
             } else {
-                eprintln!(
+                stderr_line(format_args!(
                     "error ({}): {}",
                     serde_json::to_value(e.code)
                         .unwrap_or(Value::Null)
                         .as_str()
                         .unwrap_or("?"),
                     e.message
-                );
-            }
-            exit_code(&e)
+                ));
+                Ok(())
+            };
+            (printed, exit_code(&e))
         }
         Err(e) => {
-            eprintln!("error: {e}");
-            EXIT_UNREACHABLE
+            stderr_line(format_args!("error: {e}"));
+            (Ok(()), EXIT_UNREACHABLE)
         }
+    };
+    match printed.and_then(|()| out.flush()) {
+        Ok(()) => code,
+        Err(_) => failed(out),
     }
 }
 
-fn vec_str(v: &Value, digits: usize) -> String {
-    match v.as_array() {
-        Some(a) => a
-            .iter()
-            .map(|x| {
-                x.as_f64()
-                    .map_or("-".to_owned(), |f| format!("{f:+.digits$}"))
-            })
-            .collect::<Vec<_>>()
-            .join(" "),
-        None => "-".to_owned(),
-    }
-}
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
 
-fn print_human(command: &Command, r: &Value) {
-    match command {
-        Command::Status => {
-            println!("connected      {}", r["connected"]);
-            if let Some(f) = r["fri"].as_object() {
-                println!(
-                    "fri            state {} quality {} krl {} (last drop: {})",
-                    f["state"], f["quality"], f["krl_status"], f["drop_reason"]
-                );
-            }
-            println!("cycle          {}  t = {} s", r["cycle"], r["time_s"]);
-            println!("q        rad   {}", vec_str(&r["q"], 4));
-            println!("tau_J    Nm    {}", vec_str(&r["tau"], 3));
-            println!("gravity  Nm    {}", vec_str(&r["gravity"], 3));
-            println!("tau_ext  Nm    {}", vec_str(&r["tau_ext"], 3));
-            println!("residual Nm    {}", vec_str(&r["residual"], 3));
-            println!(
-                "flags          command_mode {} moving {} stopped {} collision {} observer_fault {}",
-                r["command_mode"], r["moving"], r["stopped"], r["collision"], r["observer_fault"]
-            );
-            match r["payload"].as_object() {
-                Some(p) => println!(
-                    "payload        {} kg at ({}) m, frame 7",
-                    p["mass"],
-                    vec_str(&p["com"], 4)
-                ),
-                None => println!("payload        none"),
-            }
-            println!(
-                "monitor        armed {} thresholds [{}] Nm",
-                r["monitor"]["armed"],
-                vec_str(&r["monitor"]["thresholds"], 1)
-            );
+    /// The operator subcommands as a top-level parser, as `fri-ctl` flattens them.
+    #[derive(Debug, Parser)]
+    struct Cli {
+        #[command(subcommand)]
+        command: OperatorCommand,
+    }
+
+    fn parse(args: &[&str]) -> Result<OperatorCommand, String> {
+        Cli::try_parse_from(std::iter::once("fri-ctl").chain(args.iter().copied()))
+            .map(|c| c.command)
+            .map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn list_arguments_accept_negative_values() {
+        let around = "-0.1,0.5,0,-1.2,0,0.5,0";
+        for args in [
+            vec!["tare", "--around", around],
+            vec!["estimate-payload", "--around", around, "--apply"],
+            vec!["apply-payload", "--mass", "1", "--com", "-0.01,0,-0.02"],
+            vec!["collision", "configure", "--thresholds", "-1,6,6,6,6,6,6"],
+            vec!["collision", "configure", "--gains", "-400,1,1,1,1,1,1"],
+        ] {
+            let cmd = parse(&args).unwrap_or_else(|e| panic!("{args:?}: {e}"));
+            assert!(check_lists(&cmd).is_ok(), "{args:?}");
         }
-        Command::EstimatePayload { .. } => {
-            let f = |k: &str| r[k].as_f64().unwrap_or(f64::NAN);
-            let c = |k: &str, i: usize| r[k][i].as_f64().unwrap_or(f64::NAN);
-            println!(
-                "mass  {:.4} ± {:.4} kg   ({} samples, tare {}, condition {:.1})",
-                f("mass"),
-                f("mass_std"),
-                r["samples"],
-                r["tare_used"],
-                f("condition_number")
-            );
-            println!(
-                "com   ({:+.4} ± {:.4}, {:+.4} ± {:.4}, {:+.4} ± {:.4}) m in frame 7",
-                c("com", 0),
-                c("com_std", 0),
-                c("com", 1),
-                c("com_std", 1),
-                c("com", 2),
-                c("com_std", 2)
-            );
-            println!(
-                "com   ({:+.4}, {:+.4}, {:+.4}) m in the flange frame",
-                c("com_flange", 0),
-                c("com_flange", 1),
-                c("com_flange", 2)
-            );
-            println!(
-                "{}",
-                if r["applied"] == true {
-                    "applied to the collision observer"
-                } else {
-                    "not applied (use --apply or `fri-ctl apply-payload`)"
-                }
-            );
-        }
-        Command::Record { .. } => {
-            println!(
-                "recorded {} rows to {}",
-                r["rows"],
-                r["path"].as_str().unwrap_or("?")
-            );
-            if r["lost"].as_u64().is_some_and(|n| n > 0) {
-                println!("({} cycles lost: the recorder fell behind)", r["lost"]);
-            }
-        }
-        _ => println!("{}", serde_json::to_string_pretty(r).unwrap_or_default()),
+        let OperatorCommand::Collision { thresholds, .. } =
+            parse(&["collision", "configure", "--thresholds", "-1,6,6,6,6,6,-6"]).unwrap()
+        else {
+            panic!("not a collision command");
+        };
+        assert_eq!(thresholds.unwrap()[6], -6.0);
     }
 }

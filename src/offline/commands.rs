@@ -9,6 +9,7 @@ use dynamics::Model;
 use estimator::CoefficientSet;
 use estimator::correction::{Calibration, estimate_with_calibration, estimate_with_tare};
 use estimator::estimate::{self as static_estimate, EstimateOptions, Method};
+use estimator::plausible::Ranges;
 use estimator::poses::{self, Criterion, Nominal};
 use estimator::samples::{StaticCheck, StaticSample, read_csv};
 use nalgebra::SVector;
@@ -18,11 +19,20 @@ use super::args::{CalibrateArgs, CoefficientsArgs, EstimateArgs, MethodArg, Pose
 use super::report;
 use super::robot::with_robot;
 
-/// Reads static samples of an N-joint robot from a CSV file.
-pub(crate) fn read_samples<const N: usize>(path: &Path) -> anyhow::Result<Vec<StaticSample<N>>> {
+/// Reads static samples of an N-joint robot from a CSV file; every value must be plausible for
+/// `model` (positions within its joint limits, torques within twice its torque limits).
+pub(crate) fn read_samples<const N: usize>(
+    path: &Path,
+    model: &Model<N>,
+) -> anyhow::Result<Vec<StaticSample<N>>> {
     let file =
         File::open(path).with_context(|| format!("cannot open samples file {}", path.display()))?;
-    read_csv::<N, _>(BufReader::new(file)).with_context(|| format!("reading {}", path.display()))
+    let context = || format!("reading {}", path.display());
+    let samples = read_csv::<N, _>(BufReader::new(file)).with_context(context)?;
+    Ranges::from_limits(model.limits())
+        .check_samples(&samples)
+        .with_context(context)?;
+    Ok(samples)
 }
 
 fn options(method: MethodArg, max_velocity: f64) -> EstimateOptions {
@@ -44,10 +54,10 @@ fn estimate_n<const N: usize>(
     a: &EstimateArgs,
     out: &mut dyn Write,
 ) -> anyhow::Result<()> {
-    let samples = read_samples::<N>(&a.samples)?;
+    let samples = read_samples::<N>(&a.samples, &model)?;
     let opts = options(a.method, a.max_velocity);
     let est = if let Some(tare_path) = &a.tare {
-        let tare = read_samples::<N>(tare_path)?;
+        let tare = read_samples::<N>(tare_path, &model)?;
         estimate_with_tare(&model, &samples, &tare, a.tare_tolerance, &opts).with_context(|| {
             format!(
                 "tare estimate from {} and {}",
@@ -268,7 +278,7 @@ fn calibrate_n<const N: usize>(
     a: &CalibrateArgs,
     out: &mut dyn Write,
 ) -> anyhow::Result<()> {
-    let samples = read_samples::<N>(&a.samples)?;
+    let samples = read_samples::<N>(&a.samples, &model)?;
     let cal = Calibration::identify(&model, &samples, &EstimateOptions::default())
         .with_context(|| format!("calibration from {}", a.samples.display()))?;
     cal.save(&a.out)?;

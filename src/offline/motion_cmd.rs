@@ -9,15 +9,25 @@ use estimator::motion::{
     InertialEstimate, MotionOptions, Trajectory, Unloaded, estimate_motion as run_motion,
     read_log_csv,
 };
+use estimator::plausible::Ranges;
 
 use super::args::MotionArgs;
 use super::commands::read_samples;
 use super::robot::with_robot;
 
-fn read_log<const N: usize>(path: &std::path::Path) -> anyhow::Result<Trajectory<N>> {
+/// Reads a trajectory log; every position and torque must be plausible for `model`.
+fn read_log<const N: usize>(
+    path: &std::path::Path,
+    model: &Model<N>,
+) -> anyhow::Result<Trajectory<N>> {
     let f = File::open(path)
         .with_context(|| format!("cannot open trajectory log {}", path.display()))?;
-    read_log_csv::<N, _>(BufReader::new(f)).with_context(|| format!("reading {}", path.display()))
+    let context = || format!("reading {}", path.display());
+    let trajectory = read_log_csv::<N, _>(BufReader::new(f)).with_context(context)?;
+    Ranges::from_limits(model.limits())
+        .check_trajectory(&trajectory)
+        .with_context(context)?;
+    Ok(trajectory)
 }
 
 fn report(e: &InertialEstimate, last_frame: usize) -> String {
@@ -82,15 +92,15 @@ fn motion_n<const N: usize>(
     let loaded: Vec<Trajectory<N>> = a
         .log
         .iter()
-        .map(|p| read_log::<N>(p))
+        .map(|p| read_log::<N>(p, &model))
         .collect::<anyhow::Result<_>>()?;
     let tare: Vec<Trajectory<N>> = a
         .tare_log
         .iter()
-        .map(|p| read_log::<N>(p))
+        .map(|p| read_log::<N>(p, &model))
         .collect::<anyhow::Result<_>>()?;
     let statics = match &a.static_samples {
-        Some(p) => read_samples::<N>(p)?,
+        Some(p) => read_samples::<N>(p, &model)?,
         None => Vec::new(),
     };
     let unloaded = if tare.is_empty() {

@@ -2,11 +2,13 @@
 //! measurement correctly in monitor mode (mirroring the controller's set-point), and prints the
 //! measurements once per N cycles as a table or as JSON lines.
 
+use std::io::Write;
 use std::net::SocketAddr;
+use std::process::ExitCode;
 use std::sync::mpsc::sync_channel;
 use std::time::Duration;
 
-use anyhow::{Context, Result, bail};
+use anyhow::Context;
 use clap::Parser;
 use fri::endpoint::{CycleOutput, Endpoint, EndpointConfig, RealtimeConfig, SocketConfig};
 use fri::state::RobotState;
@@ -36,8 +38,59 @@ struct Args {
     timeout_ms: u64,
 }
 
-fn main() -> Result<()> {
-    let args = Args::parse();
+/// Exit status after the reader closed stdout (`fri-monitor | head`): 128 + SIGPIPE.
+const EXIT_BROKEN_PIPE: u8 = 141;
+
+/// Why the monitor stopped early.
+enum Failure {
+    /// Writing to stdout failed (full disk, closed pipe, ...).
+    Stdout(std::io::Error),
+    /// Anything else.
+    Other(anyhow::Error),
+}
+
+impl<E: Into<anyhow::Error>> From<E> for Failure {
+    fn from(e: E) -> Self {
+        Failure::Other(e.into())
+    }
+}
+
+fn main() -> ExitCode {
+    let args = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) if e.use_stderr() => {
+            let _ = e.print();
+            return ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(2));
+        }
+        // Help and version: stdout may be closed or full too.
+        Err(e) => {
+            let mut out = std::io::stdout().lock();
+            return match write!(out, "{}", e.render()).and_then(|()| out.flush()) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(e) => exit_for_stdout(&e),
+            };
+        }
+    };
+    match run(&args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(Failure::Stdout(e)) => exit_for_stdout(&e),
+        Err(Failure::Other(e)) => {
+            let _ = writeln!(std::io::stderr(), "error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Quiet exit for a closed pipe, an error message otherwise.
+fn exit_for_stdout(e: &std::io::Error) -> ExitCode {
+    if e.kind() == std::io::ErrorKind::BrokenPipe {
+        return ExitCode::from(EXIT_BROKEN_PIPE);
+    }
+    let _ = writeln!(std::io::stderr(), "error: cannot write to stdout: {e}");
+    ExitCode::FAILURE
+}
+
+fn run(args: &Args) -> Result<(), Failure> {
     tracing_subscriber::fmt()
         .with_writer(std::io::stderr)
         .with_env_filter(
@@ -46,7 +99,7 @@ fn main() -> Result<()> {
         )
         .init();
     if args.every == 0 {
-        bail!("--every must be at least 1");
+        return Err(anyhow::anyhow!("--every must be at least 1").into());
     }
     let config = EndpointConfig {
         socket: SocketConfig {
@@ -74,25 +127,36 @@ fn main() -> Result<()> {
     };
     let endpoint = Endpoint::spawn(config, hook)
         .with_context(|| format!("cannot start the FRI endpoint on {}", args.bind))?;
-    eprintln!("fri-monitor listening on {}", endpoint.local_addr());
+    let _ = writeln!(
+        std::io::stderr(),
+        "fri-monitor listening on {}",
+        endpoint.local_addr()
+    );
 
+    let mut out = std::io::stdout().lock();
     let mut lines = 0u64;
+    let mut written = Ok(());
     while args.count.is_none_or(|n| lines < n) {
         let Ok(state) = printed.recv_timeout(Duration::from_millis(500)) else {
             if !endpoint.is_running() {
-                bail!("the FRI thread stopped");
+                return Err(anyhow::anyhow!("the FRI thread stopped").into());
             }
             continue;
         };
-        if args.json {
-            println!("{}", json_line(&state));
+        written = if args.json {
+            writeln!(out, "{}", json_line(&state))
         } else {
-            print_table(&state, lines == 0);
+            print_table(&mut out, &state, lines == 0)
+        }
+        .and_then(|()| out.flush());
+        if written.is_err() {
+            break;
         }
         lines += 1;
     }
+    // The endpoint is shut down (monitor mode ends cleanly) before a stdout failure is reported.
     endpoint.shutdown().context("stopping the FRI endpoint")?;
-    Ok(())
+    written.map_err(Failure::Stdout)
 }
 
 fn json_line(s: &RobotState) -> serde_json::Value {
@@ -128,25 +192,27 @@ fn json_line(s: &RobotState) -> serde_json::Value {
     })
 }
 
-fn row(label: &str, unit: &str, values: &[f64]) {
+fn row(out: &mut dyn Write, label: &str, unit: &str, values: &[f64]) -> std::io::Result<()> {
     let cells: Vec<String> = values.iter().map(|v| format!("{v:9.4}")).collect();
-    println!("  {label:<8}{unit:<6}{}", cells.join(" "));
+    writeln!(out, "  {label:<8}{unit:<6}{}", cells.join(" "))
 }
 
-fn print_table(s: &RobotState, first: bool) {
+fn print_table(out: &mut dyn Write, s: &RobotState, first: bool) -> std::io::Result<()> {
     let m = &s.measurement;
     let i = &m.interface;
     let st = &s.statistics;
     if first {
-        println!(
+        writeln!(
+            out,
             "  joints  unit  {}",
             (1..=7)
                 .map(|j| format!("{:>9}", format!("A{j}")))
                 .collect::<Vec<_>>()
                 .join(" ")
-        );
+        )?;
     }
-    println!(
+    writeln!(
+        out,
         "seq {:5}  state {:?}  quality {:?}  control {:?}  power {:#06x}  error {:#06x}  warning {:#06x}",
         m.header.send_seq_count,
         i.state,
@@ -155,8 +221,9 @@ fn print_table(s: &RobotState, first: bool) {
         m.robot.power,
         m.robot.error,
         m.robot.warning
-    );
-    println!(
+    )?;
+    writeln!(
+        out,
         "  controller: answer rate {:.3}  latency {:.3} ms  jitter {:.3} ms  misses {}  |  ours: accepted {}  rejected {}  lost {}  period {:.3} ms  response {:.1} µs",
         i.statistics.answer_rate,
         i.statistics.latency * 1e3,
@@ -167,9 +234,9 @@ fn print_table(s: &RobotState, first: bool) {
         st.sequence.lost,
         st.timing.arrival_period.mean * 1e3,
         st.timing.response_time.mean * 1e6,
-    );
-    row("q", "rad", &m.data.msr_jnt_pos);
-    row("tau", "Nm", &m.data.msr_jnt_trq);
-    row("gravity", "Nm", &m.data.gravity);
-    row("tau_ext", "Nm", &m.data.est_ext_jnt_trq);
+    )?;
+    row(out, "q", "rad", &m.data.msr_jnt_pos)?;
+    row(out, "tau", "Nm", &m.data.msr_jnt_trq)?;
+    row(out, "gravity", "Nm", &m.data.gravity)?;
+    row(out, "tau_ext", "Nm", &m.data.est_ext_jnt_trq)
 }

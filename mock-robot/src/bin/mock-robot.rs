@@ -33,10 +33,12 @@ struct Args {
     #[arg(long)]
     payload_mass: Option<f64>,
     /// Payload centre of mass in frame 7, m: X,Y,Z.
-    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    // allow_hyphen_values: "-0.1,0,0" is a value list, not a number, so allow_negative_numbers
+    // would take it for a flag.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     payload_com: Option<Vec<f64>>,
     /// Initial joint angles, rad: Q1,..,Q7 (the arm rests there unless the scenario moves it).
-    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     initial_q: Option<Vec<f64>>,
     /// White noise σ of the joint torque sensors, Nm.
     #[arg(long)]
@@ -181,4 +183,25 @@ fn main() -> Result<()> {
         "mock robot finished"
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn negative_lists_need_no_equals_sign() {
+        let args = Args::try_parse_from([
+            "mock-robot",
+            "--initial-q",
+            "-0.1,0.5,0,-1.2,0,0.5,0",
+            "--payload-com",
+            "-0.01,0,-0.1",
+        ])
+        .unwrap();
+        assert_eq!(args.initial_q.as_deref().map(|q| q[0]), Some(-0.1));
+        assert_eq!(args.payload_com.as_deref().map(|c| c[2]), Some(-0.1));
+        let config = build_config(&args).unwrap();
+        assert_eq!(config.initial_q_rad.map(|q| q[3]), Some(-1.2));
+    }
 }

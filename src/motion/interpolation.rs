@@ -60,12 +60,15 @@ pub struct JointSetpoint<const N: usize> {
 enum Profile {
     /// Quintic rest-to-rest from s = 0 to s = 1 over `duration`.
     Quintic { duration: f64 },
-    /// Quartic brake from (s0, v0, a0) at `t0` to rest over `duration`.
+    /// Brake from (s0, v0, a0) at `t0`: first `kill_s` of constant jerk `kill_jerk` that takes
+    /// a positive acceleration to zero, then a quartic to rest over `duration`.
     Brake {
         t0: f64,
         s0: f64,
         v0: f64,
         a0: f64,
+        kill_jerk: f64,
+        kill_s: f64,
         c3: f64,
         c4: f64,
         duration: f64,
@@ -149,7 +152,12 @@ impl<const N: usize> JointMove<N> {
     pub fn end_time(&self) -> f64 {
         match self.profile {
             Profile::Quintic { duration } => duration,
-            Profile::Brake { t0, duration, .. } => t0 + duration,
+            Profile::Brake {
+                t0,
+                kill_s,
+                duration,
+                ..
+            } => t0 + kill_s + duration,
         }
     }
 
@@ -190,17 +198,30 @@ impl<const N: usize> JointMove<N> {
                 s0,
                 v0,
                 a0,
+                kill_jerk,
+                kill_s,
                 c3,
                 c4,
                 duration,
             } => {
-                let u = (t - t0).clamp(0.0, duration);
-                let s = s0 + v0 * u + 0.5 * a0 * u * u + c3 * u.powi(3) + c4 * u.powi(4);
-                if t - t0 >= duration {
+                let kill = |u: f64| {
+                    (
+                        s0 + v0 * u + 0.5 * a0 * u * u + kill_jerk * u.powi(3) / 6.0,
+                        v0 + a0 * u + 0.5 * kill_jerk * u * u,
+                        a0 + kill_jerk * u,
+                    )
+                };
+                if t - t0 < kill_s {
+                    return kill((t - t0).max(0.0));
+                }
+                let (s1, v1, a1) = kill(kill_s);
+                let u = (t - t0 - kill_s).clamp(0.0, duration);
+                let s = s1 + v1 * u + 0.5 * a1 * u * u + c3 * u.powi(3) + c4 * u.powi(4);
+                if t - t0 - kill_s >= duration {
                     return (s, 0.0, 0.0);
                 }
-                let v = v0 + a0 * u + 3.0 * c3 * u * u + 4.0 * c4 * u.powi(3);
-                let a = a0 + 6.0 * c3 * u + 12.0 * c4 * u * u;
+                let v = v1 + a1 * u + 3.0 * c3 * u * u + 4.0 * c4 * u.powi(3);
+                let a = a1 + 6.0 * c3 * u + 12.0 * c4 * u * u;
                 (s, v, a)
             }
         }
@@ -224,25 +245,39 @@ impl<const N: usize> JointMove<N> {
         }
         let (s0, v0, a0) = self.path(t);
         let t0 = t.max(0.0);
-        if v0 == 0.0 && a0 == 0.0 {
-            self.profile = Profile::Brake {
-                t0,
-                s0,
-                v0,
-                a0,
-                c3: 0.0,
-                c4: 0.0,
-                duration: 0.0,
-            };
+        let (vs, as_, js) = self.limits.along(&self.delta);
+        // Still accelerating: take the acceleration to zero at the jerk limit first (the speed
+        // gains a0²/2j, no more than the planned profile would have). A quartic from (v0, a0 > 0)
+        // gains far more, and near the speed limit no duration fits at all.
+        let (kill_jerk, kill_s) = if a0 > 0.0 && js.is_finite() && js > 0.0 {
+            (-js, a0 / js)
+        } else {
+            (0.0, 0.0)
+        };
+        let v1 = v0 + a0 * kill_s + 0.5 * kill_jerk * kill_s * kill_s;
+        let a1 = a0 + kill_jerk * kill_s;
+        let brake = |c3: f64, c4: f64, duration: f64| Profile::Brake {
+            t0,
+            s0,
+            v0,
+            a0,
+            kill_jerk,
+            kill_s,
+            c3,
+            c4,
+            duration,
+        };
+        if v1 == 0.0 && a1 == 0.0 {
+            self.profile = brake(0.0, 0.0, 0.0);
             return;
         }
-        let (vs, as_, js) = self.limits.along(&self.delta);
-        // Feasibility is monotone in the duration (longer = gentler): bisect on it.
+        // Feasibility is monotone in the duration (longer = gentler) once the acceleration is
+        // not positive: bisect on it.
         let fits = |d: f64| {
-            let (c3, c4) = brake_coefficients(v0, a0, d);
+            let (c3, c4) = brake_coefficients(v1, a1, d);
             brake_within(
-                v0,
-                a0,
+                v1,
+                a1,
                 c3,
                 c4,
                 d,
@@ -267,16 +302,8 @@ impl<const N: usize> JointMove<N> {
                 lo = mid;
             }
         }
-        let (c3, c4) = brake_coefficients(v0, a0, hi);
-        self.profile = Profile::Brake {
-            t0,
-            s0,
-            v0,
-            a0,
-            c3,
-            c4,
-            duration: hi,
-        };
+        let (c3, c4) = brake_coefficients(v1, a1, hi);
+        self.profile = brake(c3, c4, hi);
     }
 }
 
@@ -468,6 +495,29 @@ mod tests {
         // It stops short of the target, on the line.
         assert!((rest - target).norm() > 1e-3);
         check_trajectory(&m, &limits());
+    }
+
+    /// A stop while still accelerating close to the speed limit (found by the property test
+    /// below): the quartic alone found no feasible duration and planned a 4.7-hour "brake" that
+    /// sped up to 640 times the limit. The arm must instead stop within limits, promptly.
+    #[test]
+    fn a_stop_while_accelerating_near_the_speed_limit_stops_promptly() {
+        let lim = MotionLimits {
+            velocity: V7::from([1.2885, 0.05, 0.2907, 0.05, 0.05, 0.05, 0.05]),
+            acceleration: V7::from([0.4899, 0.2, 4.6196, 0.2, 0.2, 0.2, 0.2]),
+            jerk: V7::from([36.82, 1.0, 7.498, 1.0, 1.0, 1.0, 1.0]),
+        };
+        let target = V7::from([-0.4853, 0.0, -0.4256, 0.0, 0.0, 0.0, 0.0]);
+        let mut m = JointMove::new(V7::zeros(), target, lim).unwrap();
+        let t_stop = m.end_time() * 0.4555;
+        let before = m.end_time();
+        m.stop_at(t_stop);
+        assert!(
+            m.end_time() - t_stop < before,
+            "brake {} s",
+            m.end_time() - t_stop
+        );
+        check_trajectory(&m, &lim);
     }
 
     proptest! {

@@ -221,7 +221,10 @@ impl ServiceCore {
 
     /// `status`.
     pub fn status(&self) -> Value {
-        let latest = self.shared.latest();
+        // One read: `connected` and the values shown must describe the same state.
+        let newest = self.shared.latest_with_age();
+        let connected = newest.is_some_and(|(_, age)| age <= self.connection_timeout());
+        let latest = newest.map(|(s, _)| s);
         let (payload, armed, thresholds, gains, tare) = self.persistent(|p| {
             (
                 p.payload,
@@ -245,7 +248,8 @@ impl ServiceCore {
             })
         });
         json!({
-            "connected": self.latest().is_ok(),
+            "connected": connected,
+            "residual_valid": latest.is_some_and(|s| s.flags & flags::RESIDUAL_INVALID == 0),
             "fri": fri,
             "cycle": latest.map(|s| s.cycle),
             "time_s": latest.map(|s| s.time_s),

@@ -178,6 +178,10 @@ fn demo_config(dir: &Path) -> Config {
     c.motion.max_jerk = [100.0; 7];
     c.estimation.settle_window_s = 0.1;
     c.estimation.average_s = 0.3;
+    // Each phase brings its simulated controller up on a new socket, at least 0.2 s after the
+    // previous one stopped: a 0.1 s resync binds the new one at its first datagram (with the
+    // default 1 s its first 0.8 s would go unanswered and the log would start late).
+    c.fri.resync_after_s = 0.1;
     // The payload is unknown until estimated: report only, arm after the estimate.
     c.observer.armed = false;
     c.observer.thresholds = [THRESHOLD_NM; 7];

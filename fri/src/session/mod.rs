@@ -382,7 +382,11 @@ impl Session {
         // From here on the application has acted on this measurement (even if encoding fails).
         self.arrival_answered = true;
         let (source, received_at, mirrored) = (*source, *received_at, !Self::commanding(msr));
-        let reflected = self.previous_send_seq == Some(msr.header.refl_seq_count);
+        // The controller holds our previous reply only if it received it (reflected) and no
+        // cycle passed without one (a measurement lost or superseded unanswered): otherwise it
+        // extrapolated, and its own set-point in the measurement is the truth.
+        let reflected = self.previous_send_seq == Some(msr.header.refl_seq_count)
+            && self.arrival == Some(Arrival::Continued { cycles: 1 });
         let mut cmd = build(
             &self.config,
             &mut self.stats.limits,

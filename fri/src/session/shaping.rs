@@ -10,7 +10,7 @@ use crate::handshake::{HandshakeRequest, KrlStrategy};
 use crate::wire::{Command, CommandFlags, InterfaceState, JOINTS, Measurement};
 
 /// The command for `msr`, with every rule applied (header counters filled by the caller);
-/// `reflected` tells whether `msr` reflects `previous` (the controller received it).
+/// `reflected` tells whether the controller applied `previous` in the cycle before `msr`.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn build(
     config: &SessionConfig,
@@ -45,9 +45,9 @@ pub(super) fn build(
     let mirrored = msr.mirrored_joint_position();
     let (jnt_pos, add_jnt_trq) = if commanding {
         // Step limits start from the set-point the controller holds now: our previous reply
-        // when the measurement reflects it (the controller applied it), otherwise the
-        // controller's own set-point cmdJntPos + cmdJntPosFriOffset, which after missed answers
-        // is its extrapolation of our last step. Stepping from our unreceived reply instead
+        // when the controller applied it in the last cycle, otherwise the controller's own
+        // set-point cmdJntPos + cmdJntPosFriOffset, which after missed answers is its
+        // extrapolation of our last step. Stepping from our unreceived reply instead
         // would pull the controller back by the bridged steps: a set-point jump.
         let base_pos = match previous {
             Some(p) if reflected => p.jnt_pos,

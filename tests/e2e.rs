@@ -104,6 +104,26 @@ fn sim(payload: bool, seed: u64) -> SimulationConfig {
     c
 }
 
+/// `config` armed, reacting with a stop.
+fn armed_to_stop(mut config: Config) -> Config {
+    config.observer.armed = true;
+    config.reaction.policy = fri_service::config::ReactionPolicy::Stop;
+    config
+}
+
+/// An 80 N half-sine push of 0.3 s on link 4 (along y of its frame) starting at `onset_s`.
+fn push_on_link_4(onset_s: f64) -> mock_robot::contact::ContactSpec {
+    mock_robot::contact::ContactSpec {
+        link: 4,
+        point_m: [0.0, 0.0, 0.0],
+        onset_s,
+        profile: mock_robot::contact::ContactProfile::HalfSine {
+            peak_force_n: [0.0, 80.0, 0.0],
+            duration_s: 0.3,
+        },
+    }
+}
+
 fn lockstep() -> Pacing {
     Pacing::Lockstep {
         timeout: Duration::from_millis(200),
@@ -233,35 +253,15 @@ async fn tare_then_estimate_through_the_socket_and_persist_after_restart() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn collision_during_a_workflow_stops_the_arm_and_aborts() {
     let dir = tempfile::tempdir().unwrap();
-    let mut config = test_config(dir.path());
-    config.observer.armed = true;
-    config.reaction.policy = fri_service::config::ReactionPolicy::Stop;
-    let h = Harness::start(config, dir).await;
+    let h = Harness::start(armed_to_stop(test_config(dir.path())), dir).await;
     let mut sim_config = sim(false, 3);
     // A push on link 4 while the pattern is running (it starts ≈ 0.2 s into the run and lasts ≥ 4 s).
-    sim_config.contacts = vec![mock_robot::contact::ContactSpec {
-        link: 4,
-        point_m: [0.0, 0.0, 0.0],
-        onset_s: 2.5,
-        profile: mock_robot::contact::ContactProfile::HalfSine {
-            peak_force_n: [0.0, 80.0, 0.0],
-            duration_s: 0.3,
-        },
-    }];
+    sim_config.contacts = vec![push_on_link_4(2.5)];
     // Real time: the contact must come while the pattern runs, which lockstep cannot place.
     let driver = MockDriver::spawn(sim_config, h.fri, Pacing::RealTime).unwrap();
     let mut c = h.client().await;
     wait_connected(&mut c).await;
-    let mut watcher = h.client().await;
-    let events = std::sync::Arc::new(std::sync::Mutex::new(Vec::<(String, Value)>::new()));
-    let ev = events.clone();
-    let watch = tokio::spawn(async move {
-        let _ = watcher
-            .call(Command::Watch { state_every: None }, |e, d| {
-                ev.lock().unwrap().push((e.to_owned(), d.clone()));
-            })
-            .await;
-    });
+    let events = collect_watch(h.client().await, None);
     tokio::time::sleep(Duration::from_millis(100)).await;
     let e = call(
         &mut c,
@@ -316,7 +316,6 @@ async fn collision_during_a_workflow_stops_the_arm_and_aborts() {
     tokio::time::sleep(Duration::from_millis(300)).await;
     let status = call(&mut c, Command::Status).await.unwrap();
     assert_eq!(status["stopped"], false, "{status}");
-    watch.abort();
     drop(driver.stop());
     h.stop().await;
 }
@@ -723,9 +722,7 @@ async fn no_residual_from_an_unsynchronised_observer_is_published() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn disarm_grasp_apply_arm_and_a_contact_stops_the_arm() {
     let dir = tempfile::tempdir().unwrap();
-    let mut config = test_config(dir.path());
-    config.observer.armed = true;
-    config.reaction.policy = fri_service::config::ReactionPolicy::Stop;
+    let mut config = armed_to_stop(test_config(dir.path()));
     // The default (paper-like) speeds: the applied payload compensates gravity only, so fast
     // moves would show its inertia as residual (issue 14's subject, not this test's).
     config.motion = Config::default().motion;
@@ -735,15 +732,7 @@ async fn disarm_grasp_apply_arm_and_a_contact_stops_the_arm() {
         time_s: 1.0,
         action: mock_robot::config::PayloadAction::Attach,
     }];
-    sim_config.contacts = vec![mock_robot::contact::ContactSpec {
-        link: 4,
-        point_m: [0.0, 0.0, 0.0],
-        onset_s: 4.0,
-        profile: mock_robot::contact::ContactProfile::HalfSine {
-            peak_force_n: [0.0, 80.0, 0.0],
-            duration_s: 0.3,
-        },
-    }];
+    sim_config.contacts = vec![push_on_link_4(4.0)];
     let (mass, com) = (sim_config.payload.mass_kg, sim_config.payload.com_m);
     let driver = MockDriver::spawn(sim_config, h.fri, Pacing::RealTime).unwrap();
     let mut c = h.client().await;

@@ -91,6 +91,13 @@ impl<const N: usize> ResidualIntegrator<N> {
         self.residual = SVector::zeros();
     }
 
+    /// Adds `delta` \[Nm\] to the residual: the change of its steady state when the model's
+    /// gravity term changes by `delta` (a new payload estimate), applied at once instead of
+    /// being filtered in over 1/K_I.
+    pub fn shift(&mut self, delta: &SVector<f64, N>) {
+        self.residual += delta;
+    }
+
     /// Re-anchors the momentum reference after a gap without touching the residual.
     pub fn resynchronise(&mut self, momentum: &SVector<f64, N>) {
         self.previous_momentum = *momentum;

@@ -110,6 +110,8 @@ pub struct MomentumObserver<const N: usize> {
     data: Data<N>,
     payload: PayloadCompensation,
     payload_gravity: SVector<f64, 4>,
+    /// Change of the payload's gravity parameters not yet applied to the residual.
+    payload_shift: Option<SVector<f64, 4>>,
     integrator: ResidualIntegrator<N>,
     velocity: VelocityEstimator<N>,
     faults: FaultLog,
@@ -142,6 +144,7 @@ impl<const N: usize> MomentumObserver<N> {
             data,
             payload: PayloadCompensation::None,
             payload_gravity: SVector::zeros(),
+            payload_shift: None,
             faults: FaultLog::default(),
             payload_fault: None,
             cycle: 0,
@@ -205,7 +208,15 @@ impl<const N: usize> MomentumObserver<N> {
         self.payload_fault = None;
         let mass_matrix_changes =
             self.inertia_model.is_some() || matches!(payload, PayloadCompensation::Full(_));
-        self.payload_gravity = payload.gravity_parameters();
+        let parameters = payload.gravity_parameters();
+        if self.started {
+            // The residual's steady state at rest is g_L − τ: it moves with the gravity term at
+            // once (applied on the next sample, where q is known), instead of filtering the step
+            // in over 1/K_I; an operator may arm right after applying an estimate.
+            let pending = self.payload_shift.unwrap_or_default();
+            self.payload_shift = Some(pending + parameters - self.payload_gravity);
+        }
+        self.payload_gravity = parameters;
         self.inertia_model = match &payload {
             PayloadCompensation::Full(p) => Some(self.unloaded.with_payload(p)),
             _ => None,
@@ -225,6 +236,7 @@ impl<const N: usize> MomentumObserver<N> {
     /// Forgets all state: the next sample re-initialises p(0) and the residual.
     pub fn reset(&mut self) {
         self.started = false;
+        self.payload_shift = None;
         self.resync_pending = false;
         self.velocity.reset();
         self.repeats = 0;
@@ -366,6 +378,13 @@ impl<const N: usize> MomentumObserver<N> {
             Err(fault) => return self.reject(fault),
         };
         self.last_velocity = qd;
+        if let Some(change) = self.payload_shift.take()
+            && self.started
+        {
+            let shift =
+                payload_gravity_regressor(&self.unloaded, &mut self.data, &input.q) * change;
+            self.integrator.shift(&shift);
+        }
         if !self.started {
             self.integrator.reset(&terms.momentum);
             self.started = true;

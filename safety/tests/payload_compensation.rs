@@ -104,3 +104,35 @@ fn estimated_payload_keeps_the_residual_below_half_the_threshold() {
         "full-inertia peak {full} Nm vs gravity-only {grav} Nm"
     );
 }
+
+/// Applying an estimate moves the residual to its new steady state on the next sample (at rest
+/// r = g_L − τ), instead of filtering the step in over 1/K_I: an operator may arm right after.
+#[test]
+fn applying_a_payload_moves_the_residual_at_once() {
+    let model = lwr4();
+    let q = nalgebra::SVector::<f64, 7>::from_column_slice(&[0.0, 0.5, 0.0, -1.0, 0.0, 1.0, 0.0]);
+    let (mass, com) = (3.0, Vector3::new(0.0, 0.0, 0.12));
+    let loaded = model.with_payload(&InertialParameters::point_mass(mass, com));
+    let mut data = dynamics::Data::new(&loaded);
+    let tau = dynamics::compute_generalized_gravity(&loaded, &mut data, &q);
+    let mut config = ObserverConfig::new(T, 400.0);
+    config.stale_limit = None;
+    let mut observer = MomentumObserver::new(model, config).unwrap();
+    for _ in 0..200 {
+        observer.step(&ObserverInput::new(q, tau, T));
+    }
+    assert!(
+        observer.residual().amax() > 6.0,
+        "uncompensated: {}",
+        observer.residual()
+    );
+    observer
+        .set_payload(PayloadCompensation::gravity_from_com(mass, com))
+        .unwrap();
+    observer.step(&ObserverInput::new(q, tau, T));
+    assert!(
+        observer.residual().amax() < 1e-6,
+        "one sample after applying: {}",
+        observer.residual()
+    );
+}

@@ -104,6 +104,16 @@ fn sim(payload: bool, seed: u64) -> SimulationConfig {
     c
 }
 
+/// The 6-pose ±7° tare of the tests.
+fn six_pose_tare() -> Command {
+    Command::Tare {
+        around: None,
+        poses: Some(6),
+        step_deg: Some(7.0),
+        pattern: None,
+    }
+}
+
 /// `config` armed, reacting with a stop.
 fn armed_to_stop(mut config: Config) -> Config {
     config.observer.armed = true;
@@ -263,17 +273,7 @@ async fn collision_during_a_workflow_stops_the_arm_and_aborts() {
     wait_connected(&mut c).await;
     let events = collect_watch(h.client().await, None);
     tokio::time::sleep(Duration::from_millis(100)).await;
-    let e = call(
-        &mut c,
-        Command::Tare {
-            around: None,
-            poses: Some(6),
-            step_deg: Some(7.0),
-            pattern: None,
-        },
-    )
-    .await
-    .unwrap_err();
+    let e = call(&mut c, six_pose_tare()).await.unwrap_err();
     assert_eq!(
         e.code,
         fri_service::operator::protocol::ErrorCode::Aborted,
@@ -633,17 +633,7 @@ async fn a_vanished_controller_fails_the_workflow_at_once_with_its_cause() {
         drop(driver.stop());
     });
     let started = std::time::Instant::now();
-    let e = call(
-        &mut c,
-        Command::Tare {
-            around: None,
-            poses: Some(6),
-            step_deg: Some(7.0),
-            pattern: None,
-        },
-    )
-    .await
-    .unwrap_err();
+    let e = call(&mut c, six_pose_tare()).await.unwrap_err();
     killer.await.unwrap();
     assert!(
         matches!(

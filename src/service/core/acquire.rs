@@ -6,9 +6,8 @@ use std::time::Duration;
 use tokio::sync::broadcast::error::RecvError;
 use tokio::time::Instant;
 
-use super::move_to::{SilenceTimer, describe_change, residual_change};
+use super::move_to::SilenceTimer;
 use super::{ServiceCore, err};
-use crate::ipc::messages::flags;
 use crate::operator::protocol::{ErrorCode, OperatorError};
 use crate::service::events::RtEvent;
 use crate::service::settle::{AveragedSample, Averager, SettleDetector};
@@ -45,13 +44,8 @@ impl ServiceCore {
             tokio::select! {
                 s = states.recv() => match s {
                     Ok(s) => {
-                        if s.flags & flags::STOPPED != 0 {
-                            return Err(self.stopped_error());
-                        }
-                        if let Some(b) = &baseline
-                            && let Some(cause) = residual_change(&s, b, &thresholds)
-                        {
-                            return Err(err(ErrorCode::Aborted, format!("{} while sampling: contact?", describe_change(&cause))).with_cause(cause));
+                        if let Some(e) = self.state_abort(&s, baseline.as_ref(), &thresholds, "while sampling: contact?") {
+                            return Err(e);
                         }
                         if settling {
                             let t0 = *settle_start_t.get_or_insert(s.time_s);

@@ -66,6 +66,23 @@ impl SilenceTimer {
 }
 
 impl ServiceCore {
+    /// Why a published state ends a workflow step: the arm is held, or (with `baseline`) the
+    /// residual changed beyond the workflow threshold; `context` says where ("while sampling").
+    pub(super) fn state_abort(
+        &self,
+        state: &crate::ipc::RobotState,
+        baseline: Option<&[f64; 7]>,
+        thresholds: &[f64; 7],
+        context: &str,
+    ) -> Option<OperatorError> {
+        if state.flags & flags::STOPPED != 0 {
+            return Some(self.stopped_error());
+        }
+        let cause = residual_change(state, baseline?, thresholds)?;
+        let message = format!("{} {context}", describe_change(&cause));
+        Some(err(ErrorCode::Aborted, message).with_cause(cause))
+    }
+
     /// Moves to `target` in command mode and waits for the arrival; aborts on a collision,
     /// a stop, or loss of command mode (after [`MOVE_RETRIES`] re-drives), each with its cause.
     /// With `baseline`, a residual change beyond the workflow threshold aborts the move.
@@ -111,14 +128,12 @@ impl ServiceCore {
             tokio::select! {
                 s = states.recv() => match s {
                     Ok(s) => {
-                        if s.flags & flags::STOPPED != 0 {
-                            return Err(self.stopped_error());
-                        }
-                        if let Some(b) = &baseline
-                            && let Some(cause) = residual_change(&s, b, &thresholds)
-                        {
-                            let _ = self.send(RtRequest::Stop);
-                            return Err(err(ErrorCode::Aborted, format!("{} during the move: contact? (arm stopped; `resume` to continue)", describe_change(&cause))).with_cause(cause));
+                        if let Some(e) = self.state_abort(&s, baseline.as_ref(), &thresholds, "during the move: contact? (arm stopped; `resume` to continue)") {
+                            // A residual change: hold the arm, as a reaction would.
+                            if s.flags & flags::STOPPED == 0 {
+                                let _ = self.send(RtRequest::Stop);
+                            }
+                            return Err(e);
                         }
                         if s.flags & flags::MOVING != 0 {
                             seen_moving = true;

@@ -11,8 +11,7 @@ use crate::error::{SimError, ensure};
 use crate::faults::NetworkFaultSpec;
 use crate::motion::MotionSegment;
 
-/// Number of joints of the LWR 4+.
-pub const JOINTS: usize = 7;
+pub use fri::wire::JOINTS;
 
 /// Default start pose: the paper's "pick" pose (0, 30, 0, −60, 0, 60, 0) deg, in degrees.
 pub const DEFAULT_INITIAL_Q_DEG: [f64; JOINTS] = [0.0, 30.0, 0.0, -60.0, 0.0, 60.0, 0.0];

@@ -22,5 +22,7 @@ pub mod truth;
 
 pub use config::SimulationConfig;
 pub use error::SimError;
-pub use server::{MockRobotHandle, RunSummary, ServerConfig, TimingMode, spawn};
+pub use server::{
+    AnswerCounts, MockRobotHandle, RunSummary, ServerConfig, TimingMode, spawn, spawn_new,
+};
 pub use simulation::{ContactState, ReceiveCounters, Simulation};

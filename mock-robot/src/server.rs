@@ -19,6 +19,7 @@ use std::time::{Duration, Instant};
 
 use fri::wire::{Command, MSR_LEN};
 
+use crate::config::SimulationConfig;
 use crate::error::SimError;
 use crate::simulation::Simulation;
 use crate::truth::TruthLog;
@@ -51,6 +52,31 @@ pub struct ServerConfig {
     pub max_cycles: Option<u64>,
     /// Ground-truth CSV file to write, if any.
     pub truth_log: Option<PathBuf>,
+}
+
+impl ServerConfig {
+    /// A controller on an ephemeral loopback port sending to `client`, run until stopped, without
+    /// a truth log: what the demo and the service's end-to-end tests use.
+    pub fn loopback(client: SocketAddr, mode: TimingMode) -> Self {
+        Self {
+            bind: SocketAddr::from(([127, 0, 0, 1], 0)),
+            client,
+            mode,
+            max_cycles: None,
+            truth_log: None,
+        }
+    }
+}
+
+/// Answer counts of a run so far.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct AnswerCounts {
+    /// Measurements sent (cycles run).
+    pub sent: u64,
+    /// Measurements answered before the next one was due.
+    pub answered: u64,
+    /// Measurements not answered in time (the controller counts late answers as missed).
+    pub missed: u64,
 }
 
 /// What a run did.
@@ -112,6 +138,17 @@ impl RunCounters {
     /// most the first ten minutes.
     pub fn latencies(&self) -> Vec<f64> {
         self.latencies.lock().map(|l| l.clone()).unwrap_or_default()
+    }
+
+    /// Sent, answered and missed measurements so far.
+    pub fn answer_counts(&self) -> AnswerCounts {
+        let sent = self.cycles.load(Ordering::Relaxed);
+        let answered = self.answered.load(Ordering::Relaxed);
+        AnswerCounts {
+            sent,
+            answered,
+            missed: sent.saturating_sub(answered),
+        }
     }
 
     fn answered(&self, latency_s: f64) {
@@ -317,7 +354,16 @@ impl MockRobotHandle {
     }
 }
 
-/// Binds the socket and runs `sim` on a new thread.
+/// Builds the simulation from `config` and runs it on a new thread (see [`spawn`]).
+pub fn spawn_new(
+    config: SimulationConfig,
+    server: ServerConfig,
+) -> Result<MockRobotHandle, SimError> {
+    spawn(Simulation::new(config)?, server)
+}
+
+/// Binds the socket and runs `sim` on a new thread; a simulation returned by
+/// [`MockRobotHandle::join`] carries on where it stopped (time, sensor drift, noise).
 pub fn spawn(mut sim: Simulation, config: ServerConfig) -> Result<MockRobotHandle, SimError> {
     let socket = UdpSocket::bind(config.bind)?;
     let local_addr = socket.local_addr()?;

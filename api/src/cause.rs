@@ -1,0 +1,66 @@
+//! Typed causes of aborted and failed workflows, sent with the error so that the operator (and
+//! scripts) learn what really happened, with the controller's view at the time: a fault is never
+//! reported as a contact, and only the operator's own `stop` as "stopped by the operator".
+
+use serde::{Deserialize, Serialize};
+
+use crate::fri_context::FriContext;
+
+/// Why a workflow ended early.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+pub enum Cause {
+    /// The armed collision monitor detected a contact.
+    Collision {
+        /// Isolated link, 1..7.
+        link: u32,
+        /// Controller time of the onset, s since the service started.
+        time_s: f64,
+        /// Residual at the onset, Nm (joints 1..7).
+        residual: [f64; 7],
+    },
+    /// A residual change during a workflow that may carry an unknown payload (monitor disarmed).
+    ResidualChange {
+        /// Joint, 1..7.
+        joint: usize,
+        /// Change since the previous static sample, Nm.
+        change_nm: f64,
+        /// The limit, Nm (twice the joint's threshold).
+        limit_nm: f64,
+    },
+    /// The operator's `stop`.
+    OperatorStop,
+    /// The arm was already held (operator stop or collision reaction) when the move was asked.
+    Held,
+    /// The armed monitor faulted and stopped the arm.
+    ObserverFault {
+        /// The fault, as text.
+        fault: String,
+        /// The controller's view then.
+        fri: FriContext,
+    },
+    /// The controller left command mode and stayed out of it (after the allowed retries).
+    CommandModeLost {
+        /// Moves re-driven before giving up.
+        retries: u32,
+        /// The controller's view when command mode was lost.
+        fri: FriContext,
+    },
+    /// The controller restarted during the workflow.
+    ControllerRestarted {
+        /// The controller's view after the restart.
+        fri: FriContext,
+    },
+    /// No measurement arrived for longer than the connection timeout.
+    ControllerSilent {
+        /// Silence so far, s.
+        silent_s: f64,
+        /// The controller's view in its last measurement, if any.
+        fri: Option<FriContext>,
+    },
+    /// The controller did not enter command mode in time.
+    CommandModeNotEntered {
+        /// The controller's view in its last measurement, if any.
+        fri: Option<FriContext>,
+    },
+}

@@ -1,0 +1,565 @@
+//! Operator protocol messages: one JSON object per line in each direction.
+//!
+//! Request: `{"id": 1, "cmd": "status", ...arguments}`. Replies carry the request's `id` and are
+//! either a final response `{"id": 1, "ok": true, "result": {...}}` /
+//! `{"id": 1, "ok": false, "error": {"code": "...", "message": "..."}}`, or, before it, any number
+//! of streamed events `{"id": 1, "event": "progress", "data": {...}}`.
+//! The full schema is documented in `docs/operator-protocol.md`.
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+/// Request id chosen by the client; echoed on every reply line of that request.
+pub type RequestId = u64;
+
+/// One operator command with its arguments (the `cmd` field selects the variant).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "cmd", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum Command {
+    /// FRI state, statistics, measured state, residual, applied payload, monitor state.
+    Status,
+    /// One averaged static sample at the current pose.
+    Sample {
+        /// Averaging window, s (default from the config's `estimation.average_s`).
+        #[serde(default)]
+        duration_s: Option<f64>,
+    },
+    /// Drive the pose pattern without payload and store the samples as tare.
+    Tare {
+        /// Pick pose around which the pattern is driven, rad (default: current pose).
+        #[serde(default)]
+        around: Option<[f64; 7]>,
+        /// Number of poses (default from config).
+        #[serde(default)]
+        poses: Option<usize>,
+        /// Pattern increment, degrees (default from config, 7).
+        #[serde(default)]
+        step_deg: Option<f64>,
+        /// Pose pattern (default `paper`).
+        #[serde(default)]
+        pattern: Option<crate::pattern::PatternKind>,
+    },
+    /// Drive the pose pattern with the payload, estimate it and return it with uncertainties.
+    EstimatePayload {
+        /// Pick pose around which the pattern is driven, rad (default: current pose).
+        #[serde(default)]
+        around: Option<[f64; 7]>,
+        /// Number of poses (default from config).
+        #[serde(default)]
+        poses: Option<usize>,
+        /// Pattern increment, degrees (default from config, 7).
+        #[serde(default)]
+        step_deg: Option<f64>,
+        /// Pose pattern (default `paper`).
+        #[serde(default)]
+        pattern: Option<crate::pattern::PatternKind>,
+        /// Subtract the stored tare (default: when one is stored for the same poses).
+        #[serde(default)]
+        use_tare: Option<bool>,
+        /// Apply the estimate to the observer and persist it (default false).
+        #[serde(default)]
+        apply: Option<bool>,
+    },
+    /// Apply a payload (frame 7) to the observer and persist it.
+    ApplyPayload {
+        /// Mass, kg.
+        mass: f64,
+        /// Centre of mass in frame 7, m.
+        com: [f64; 3],
+    },
+    /// Remove the applied payload (persisted).
+    ClearPayload,
+    /// Arm, disarm or tune the collision monitor.
+    Collision {
+        /// What to do.
+        action: CollisionAction,
+        /// New per-joint thresholds, Nm (with `configure`).
+        #[serde(default)]
+        thresholds: Option<[f64; 7]>,
+        /// New per-joint observer gains, 1/s (with `configure`).
+        #[serde(default)]
+        gains: Option<[f64; 7]>,
+    },
+    /// Stop: hold the current position and abort any running workflow.
+    Stop,
+    /// Resume after a stop or a collision reaction.
+    Resume,
+    /// Record to a new CSV file in the recording directory (`state.record_dir`).
+    Record {
+        /// File name in the recording directory: 1 to 255 characters of `A-Z a-z 0-9 . _ -`,
+        /// not starting with `.` or `-`, no `/`; an existing name is refused. The reply's
+        /// `path` is the full path.
+        path: String,
+        /// What to record.
+        kind: RecordKind,
+        /// Recording length for `log`, s; number of samples for `samples` is `count`.
+        #[serde(default)]
+        duration_s: Option<f64>,
+        /// Number of static samples for `samples` (each taken at the current pose).
+        #[serde(default)]
+        count: Option<usize>,
+    },
+    /// Stream events (collisions, state changes, workflow progress) until the client disconnects.
+    Watch {
+        /// Also stream a state line every this many cycles (default: events only).
+        #[serde(default)]
+        state_every: Option<u32>,
+    },
+}
+
+impl Command {
+    /// The `cmd` names the server knows, for `unknown-command` messages.
+    pub const NAMES: &'static [&'static str] = &[
+        "status",
+        "sample",
+        "tare",
+        "estimate-payload",
+        "apply-payload",
+        "clear-payload",
+        "collision",
+        "stop",
+        "resume",
+        "record",
+        "watch",
+    ];
+}
+
+/// Collision-monitor sub-command.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CollisionAction {
+    /// Report the monitor's settings and state.
+    Show,
+    /// Arm the monitor (reactions enabled).
+    Arm,
+    /// Disarm the monitor (residual still computed and published).
+    Disarm,
+    /// Change thresholds and/or gains.
+    Configure,
+}
+
+/// What `record` writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RecordKind {
+    /// Averaged static samples in the static-sample CSV format (`q1..q7,tau1..tau7,g1..g7`).
+    Samples,
+    /// Every cycle: time, q, q̇, τ_J, gravity, external torque estimate, residual.
+    Log,
+}
+
+/// Error codes of the protocol (stable strings; scripts match on them).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ErrorCode {
+    /// Not JSON, not an object, or missing/invalid `id`.
+    Malformed,
+    /// Line longer than the server's limit.
+    TooLarge,
+    /// `cmd` missing or not a known command.
+    UnknownCommand,
+    /// Arguments missing, of the wrong type, unknown, or out of range.
+    InvalidArguments,
+    /// Too many requests in flight on this connection, or a workflow already running.
+    Busy,
+    /// The robot is not in a state that allows the command (no FRI connection, stopped, ...).
+    NotReady,
+    /// The workflow was aborted by a collision or an operator stop.
+    Aborted,
+    /// The command ran but failed (e.g. estimation could not be computed).
+    Failed,
+    /// Internal error of the service.
+    Internal,
+}
+
+/// A failed request: code plus human-readable message.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, thiserror::Error)]
+#[error("{code:?}: {message}")]
+pub struct OperatorError {
+    /// Machine-readable code.
+    pub code: ErrorCode,
+    /// What went wrong and, where possible, what to do.
+    pub message: String,
+    /// The typed cause with the controller's view at the time, where the service knows it
+    /// (boxed: it is large and every `Result<_, OperatorError>` would carry its size).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cause: Option<Box<crate::cause::Cause>>,
+}
+
+impl OperatorError {
+    /// Builds an error.
+    pub fn new(code: ErrorCode, message: impl Into<String>) -> Self {
+        Self {
+            code,
+            message: message.into(),
+            cause: None,
+        }
+    }
+
+    /// This error with its typed cause.
+    pub fn with_cause(mut self, cause: crate::cause::Cause) -> Self {
+        self.cause = Some(Box::new(cause));
+        self
+    }
+}
+
+/// One line from the server.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Reply {
+    /// A streamed event of a running request.
+    Event {
+        /// Request id (`null` when the request had no readable id).
+        id: Option<RequestId>,
+        /// Event kind, e.g. `progress`, `collision`, `state`.
+        event: String,
+        /// Event payload.
+        data: Value,
+    },
+    /// Final success.
+    Ok {
+        /// Request id.
+        id: Option<RequestId>,
+        /// Always true.
+        ok: bool,
+        /// Command result.
+        result: Value,
+    },
+    /// Final failure.
+    Err {
+        /// Request id (`null` when the request had no readable id).
+        id: Option<RequestId>,
+        /// Always false.
+        ok: bool,
+        /// The error.
+        error: OperatorError,
+    },
+}
+
+impl Reply {
+    /// A success line.
+    pub fn ok(id: Option<RequestId>, result: Value) -> Self {
+        Reply::Ok {
+            id,
+            ok: true,
+            result,
+        }
+    }
+
+    /// An error line.
+    pub fn err(id: Option<RequestId>, error: OperatorError) -> Self {
+        Reply::Err {
+            id,
+            ok: false,
+            error,
+        }
+    }
+
+    /// Serialises to one line without the trailing newline.
+    pub fn to_line(&self) -> String {
+        // Serialising a Value-based enum cannot fail (no maps with non-string keys).
+        serde_json::to_string(self).unwrap_or_else(|_| {
+            r#"{"id":null,"ok":false,"error":{"code":"internal","message":"serialisation failed"}}"#
+                .to_owned()
+        })
+    }
+
+    /// Whether this line ends its request (success or error).
+    pub fn is_final(&self) -> bool {
+        !matches!(self, Reply::Event { .. })
+    }
+}
+
+/// A parsed request line.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Request {
+    /// Client-chosen id.
+    pub id: RequestId,
+    /// The command.
+    pub command: Command,
+}
+
+impl Request {
+    /// Serialises to one line without the trailing newline (used by `fri-ctl`).
+    pub fn to_line(&self) -> String {
+        let mut value = serde_json::to_value(&self.command).unwrap_or(Value::Null);
+        if let Value::Object(map) = &mut value {
+            map.insert("id".to_owned(), Value::from(self.id));
+        }
+        value.to_string()
+    }
+}
+
+/// Parses one request line. On failure returns the id (when it could be read) and the error,
+/// so the error reply can still be matched to its request.
+pub fn parse_request(line: &[u8]) -> Result<Request, (Option<RequestId>, OperatorError)> {
+    let value: Value = serde_json::from_slice(line).map_err(|e| {
+        (
+            None,
+            OperatorError::new(ErrorCode::Malformed, format!("not valid JSON: {e}")),
+        )
+    })?;
+    let Value::Object(mut map) = value else {
+        return Err((
+            None,
+            OperatorError::new(ErrorCode::Malformed, "a request must be a JSON object"),
+        ));
+    };
+    let id = match map.remove("id") {
+        Some(v) => v.as_u64().ok_or((
+            None,
+            OperatorError::new(ErrorCode::Malformed, "`id` must be a non-negative integer"),
+        ))?,
+        None => {
+            return Err((
+                None,
+                OperatorError::new(ErrorCode::Malformed, "missing `id`"),
+            ));
+        }
+    };
+    let cmd = match map.get("cmd") {
+        Some(Value::String(s)) => s.clone(),
+        Some(_) => {
+            return Err((
+                Some(id),
+                OperatorError::new(ErrorCode::UnknownCommand, "`cmd` must be a string"),
+            ));
+        }
+        None => {
+            return Err((
+                Some(id),
+                OperatorError::new(ErrorCode::UnknownCommand, "missing `cmd`"),
+            ));
+        }
+    };
+    if !Command::NAMES.contains(&cmd.as_str()) {
+        return Err((
+            Some(id),
+            OperatorError::new(
+                ErrorCode::UnknownCommand,
+                format!(
+                    "unknown command `{cmd}`; known: {}",
+                    Command::NAMES.join(", ")
+                ),
+            ),
+        ));
+    }
+    // Ranges first: serde's messages name neither the field nor the allowed range.
+    crate::arguments::check(&cmd, &map).map_err(|e| (Some(id), e))?;
+    let keys: Vec<String> = map.keys().cloned().collect();
+    let command: Command = serde_json::from_value(Value::Object(map)).map_err(|e| {
+        (
+            Some(id),
+            OperatorError::new(
+                ErrorCode::InvalidArguments,
+                format!("invalid arguments for `{cmd}`: {e}"),
+            ),
+        )
+    })?;
+    // serde ignores unknown fields on unit variants of internally tagged enums; every field of
+    // every variant is serialised (None as null), so a key missing there is unknown.
+    if let Ok(Value::Object(known)) = serde_json::to_value(&command)
+        && let Some(extra) = keys.iter().find(|k| !known.contains_key(*k))
+    {
+        return Err((
+            Some(id),
+            OperatorError::new(
+                ErrorCode::InvalidArguments,
+                format!("unknown argument `{extra}` for `{cmd}`"),
+            ),
+        ));
+    }
+    Ok(Request { id, command })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn code(line: &str) -> (Option<RequestId>, ErrorCode) {
+        let (id, e) = parse_request(line.as_bytes()).unwrap_err();
+        (id, e.code)
+    }
+
+    #[test]
+    fn parses_commands_with_and_without_arguments() {
+        let r = parse_request(br#"{"id": 3, "cmd": "status"}"#).unwrap();
+        assert_eq!(r.id, 3);
+        assert_eq!(r.command, Command::Status);
+        let r = parse_request(br#"{"cmd":"apply-payload","id":4,"mass":3.028,"com":[0,0,0.119]}"#)
+            .unwrap();
+        assert_eq!(
+            r.command,
+            Command::ApplyPayload {
+                mass: 3.028,
+                com: [0.0, 0.0, 0.119]
+            }
+        );
+        let r = parse_request(
+            br#"{"id":5,"cmd":"collision","action":"configure","thresholds":[6,6,6,6,6,6,5]}"#,
+        )
+        .unwrap();
+        assert!(matches!(
+            r.command,
+            Command::Collision {
+                action: CollisionAction::Configure,
+                thresholds: Some(t),
+                gains: None
+            } if t[6] == 5.0
+        ));
+    }
+
+    #[test]
+    fn request_line_round_trips() {
+        let req = Request {
+            id: 9,
+            command: Command::EstimatePayload {
+                around: Some([0.1; 7]),
+                poses: Some(10),
+                step_deg: Some(7.0),
+                pattern: Some(crate::pattern::PatternKind::Optimized),
+                use_tare: None,
+                apply: Some(true),
+            },
+        };
+        assert_eq!(parse_request(req.to_line().as_bytes()).unwrap(), req);
+    }
+
+    #[test]
+    fn errors_have_codes_and_keep_the_id_when_readable() {
+        assert_eq!(code("not json"), (None, ErrorCode::Malformed));
+        assert_eq!(code("[1,2]"), (None, ErrorCode::Malformed));
+        assert_eq!(code(r#"{"cmd":"status"}"#), (None, ErrorCode::Malformed));
+        assert_eq!(
+            code(r#"{"id":-1,"cmd":"status"}"#),
+            (None, ErrorCode::Malformed)
+        );
+        assert_eq!(code(r#"{"id":2}"#), (Some(2), ErrorCode::UnknownCommand));
+        assert_eq!(
+            code(r#"{"id":2,"cmd":"fly"}"#),
+            (Some(2), ErrorCode::UnknownCommand)
+        );
+        assert_eq!(
+            code(r#"{"id":2,"cmd":"status","extra":1}"#),
+            (Some(2), ErrorCode::InvalidArguments)
+        );
+        assert_eq!(
+            code(r#"{"id":2,"cmd":"apply-payload","mass":"heavy","com":[0,0,0]}"#),
+            (Some(2), ErrorCode::InvalidArguments)
+        );
+        assert_eq!(
+            code(r#"{"id":2,"cmd":"collision","action":"explode"}"#),
+            (Some(2), ErrorCode::InvalidArguments)
+        );
+    }
+
+    #[test]
+    fn every_numeric_argument_out_of_range_is_rejected_naming_the_field_and_range() {
+        let cases = [
+            (
+                r#""cmd":"sample","duration_s":0"#,
+                "duration_s = 0 s is outside 0.001…60 s",
+            ),
+            (
+                r#""cmd":"tare","around":[0,0,0,0,0,0,1e300]"#,
+                "around[6] = 1e300 rad is outside",
+            ),
+            (
+                r#""cmd":"estimate-payload","around":[1e300,0,0,0,0,0,0]"#,
+                "around[0] = 1e300 rad is outside",
+            ),
+            (
+                r#""cmd":"tare","poses":1000"#,
+                "poses = 1000 is outside 2…100",
+            ),
+            (
+                r#""cmd":"estimate-payload","step_deg":-7"#,
+                "step_deg = -7 deg is outside 1…30 deg",
+            ),
+            (
+                r#""cmd":"apply-payload","mass":1e300,"com":[0,0,0]"#,
+                "mass = 1e300 kg is outside 0…20 kg",
+            ),
+            (
+                r#""cmd":"apply-payload","mass":1,"com":[0,0,5]"#,
+                "com[2] = 5 m is outside -1…1 m",
+            ),
+            (
+                r#""cmd":"collision","action":"configure","thresholds":[6,6,6,1e300,6,6,6]"#,
+                "thresholds[3] = 1e300 Nm is outside 0.1…25 Nm (joint 4)",
+            ),
+            (
+                r#""cmd":"collision","action":"configure","gains":[400,400,400,400,400,400,1e308]"#,
+                "gains[6] = 1e308 1/s is outside 1…2000 1/s (joint 7)",
+            ),
+            (
+                r#""cmd":"record","path":"/tmp/x","kind":"log","duration_s":1e9"#,
+                "duration_s = 1e9 s is outside 0.001…3600 s",
+            ),
+            (
+                r#""cmd":"record","path":"/tmp/x","kind":"samples","count":0"#,
+                "count = 0 is outside 1…1000",
+            ),
+            (
+                r#""cmd":"watch","state_every":1e12"#,
+                "state_every = 1e12 cycles is outside 1…100000 cycles",
+            ),
+        ];
+        for (args, expected) in cases {
+            let line = format!("{{\"id\":7,{args}}}");
+            let (id, e) = parse_request(line.as_bytes()).unwrap_err();
+            assert_eq!(
+                (id, e.code),
+                (Some(7), ErrorCode::InvalidArguments),
+                "{line}"
+            );
+            assert!(e.message.starts_with(expected), "{line}: {}", e.message);
+        }
+    }
+
+    #[test]
+    fn every_known_name_parses_with_minimal_arguments() {
+        let minimal = [
+            r#"{"id":1,"cmd":"status"}"#,
+            r#"{"id":1,"cmd":"sample"}"#,
+            r#"{"id":1,"cmd":"tare"}"#,
+            r#"{"id":1,"cmd":"estimate-payload"}"#,
+            r#"{"id":1,"cmd":"apply-payload","mass":1,"com":[0,0,0]}"#,
+            r#"{"id":1,"cmd":"clear-payload"}"#,
+            r#"{"id":1,"cmd":"collision","action":"show"}"#,
+            r#"{"id":1,"cmd":"stop"}"#,
+            r#"{"id":1,"cmd":"resume"}"#,
+            r#"{"id":1,"cmd":"record","path":"x.csv","kind":"log","duration_s":1}"#,
+            r#"{"id":1,"cmd":"watch"}"#,
+        ];
+        assert_eq!(minimal.len(), Command::NAMES.len());
+        for line in minimal {
+            parse_request(line.as_bytes()).unwrap_or_else(|e| panic!("{line}: {e:?}"));
+        }
+    }
+
+    #[test]
+    fn replies_serialise_as_documented() {
+        let ok = Reply::ok(Some(1), serde_json::json!({"a": 1})).to_line();
+        assert_eq!(ok, r#"{"id":1,"ok":true,"result":{"a":1}}"#);
+        let err = Reply::err(None, OperatorError::new(ErrorCode::TooLarge, "x")).to_line();
+        assert_eq!(
+            err,
+            r#"{"id":null,"ok":false,"error":{"code":"too-large","message":"x"}}"#
+        );
+        let ev = Reply::Event {
+            id: Some(2),
+            event: "progress".into(),
+            data: serde_json::json!({"pose": 1}),
+        };
+        assert_eq!(
+            ev.to_line(),
+            r#"{"id":2,"event":"progress","data":{"pose":1}}"#
+        );
+        for line in [ok, err, ev.to_line()] {
+            let back: Reply = serde_json::from_str(&line).unwrap();
+            assert_eq!(back.to_line(), line);
+        }
+        assert!(!ev.is_final());
+    }
+}

@@ -1,0 +1,9 @@
+//! iceoryx2 publication of robot state, collision events and payload estimates.
+
+pub mod publisher;
+pub mod thread;
+
+pub use fri_api::ipc as messages;
+pub use fri_api::ipc::{CollisionEvent, PayloadEstimate, RobotState};
+pub use publisher::{IpcError, IpcNames, Publisher};
+pub use thread::{IpcSender, IpcThread};

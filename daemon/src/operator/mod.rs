@@ -1,0 +1,5 @@
+//! The operator socket: the JSON-lines server on a Unix socket (protocol and framing are in
+//! `fri_api`).
+
+mod overflow;
+pub mod server;

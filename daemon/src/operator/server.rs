@@ -1,0 +1,420 @@
+//! Operator socket server: accepts Unix-socket clients, checks their credentials, reads framed
+//! requests, runs each through a [`Handler`] and writes replies and streamed events.
+//!
+//! Each request runs in its own task so a long workflow (estimation, watch) never blocks a `stop`
+//! sent on the same connection; replies of concurrent requests interleave by line and are matched
+//! by `id`. Nothing a client sends can stop the server: bad lines get error replies.
+//!
+//! Clients cannot lock out `stop`: a connection with no request in flight that sends nothing for
+//! `idle_timeout` is closed, and beyond the connection limit a few extra connections are still
+//! read up to their first line so that a `stop` is executed ([`super::overflow`]).
+
+use std::future::Future;
+use std::os::unix::fs::PermissionsExt;
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Duration;
+
+use serde_json::Value;
+use tokio::io::AsyncWriteExt;
+use tokio::net::{UnixListener, UnixStream};
+use tokio::sync::{Semaphore, mpsc, watch};
+use tracing::{debug, info, warn};
+
+use super::overflow;
+use fri_api::frame::{Frame, LineReader};
+use fri_api::protocol::{ErrorCode, OperatorError, Reply, RequestId, parse_request};
+
+/// Executes operator commands; implemented by the service (and by test doubles).
+pub trait Handler: Send + Sync + 'static {
+    /// Runs one command; streams events through `events`, returns the final result.
+    fn handle(
+        &self,
+        command: fri_api::protocol::Command,
+        events: EventSink,
+    ) -> impl Future<Output = Result<Value, OperatorError>> + Send;
+}
+
+/// Sends streamed events of one request to its client.
+#[derive(Debug, Clone)]
+pub struct EventSink {
+    id: Option<RequestId>,
+    out: mpsc::Sender<String>,
+}
+
+impl EventSink {
+    /// A sink writing lines for request `id` into `out`.
+    pub fn new(id: Option<RequestId>, out: mpsc::Sender<String>) -> Self {
+        Self { id, out }
+    }
+
+    /// Sends one event; `false` when the client is gone (the caller should stop streaming).
+    pub async fn send(&self, event: &str, data: Value) -> bool {
+        let line = Reply::Event {
+            id: self.id,
+            event: event.to_owned(),
+            data,
+        }
+        .to_line();
+        self.out.send(line).await.is_ok()
+    }
+
+    /// Whether the client has disconnected.
+    pub fn is_closed(&self) -> bool {
+        self.out.is_closed()
+    }
+}
+
+/// Who may connect: root, the server's own uid, listed uids, or listed primary gids.
+#[derive(Debug, Clone, Default)]
+pub struct AccessPolicy {
+    /// Additional allowed user ids.
+    pub allowed_uids: Vec<u32>,
+    /// Allowed group ids (the peer's primary gid as reported by SO_PEERCRED).
+    pub allowed_gids: Vec<u32>,
+}
+
+impl AccessPolicy {
+    /// Whether a peer with these credentials may talk to the service.
+    pub fn allows(&self, uid: u32, gid: u32) -> bool {
+        // SAFETY: geteuid has no preconditions and cannot fail.
+        let own = unsafe { libc::geteuid() };
+        uid == 0
+            || uid == own
+            || self.allowed_uids.contains(&uid)
+            || self.allowed_gids.contains(&gid)
+    }
+}
+
+/// Limits applied per server and per connection.
+#[derive(Debug, Clone, Copy)]
+pub struct ServerLimits {
+    /// Longest request line, bytes.
+    pub max_line_bytes: usize,
+    /// Most simultaneous connections.
+    pub max_clients: usize,
+    /// Most requests running at once on one connection.
+    pub max_in_flight: usize,
+    /// A connection with no request in flight that sends nothing for this long is closed.
+    pub idle_timeout: Duration,
+    /// Most connections at once beyond `max_clients` that are read for a `stop` only.
+    pub over_limit_connections: usize,
+    /// How long an over-limit connection may take to send its first line (and to take the
+    /// reply).
+    pub over_limit_grace: Duration,
+}
+
+impl Default for ServerLimits {
+    fn default() -> Self {
+        Self {
+            max_line_bytes: 65536,
+            max_clients: 64,
+            max_in_flight: 16,
+            idle_timeout: Duration::from_secs(30),
+            over_limit_connections: 4,
+            over_limit_grace: Duration::from_secs(2),
+        }
+    }
+}
+
+/// Errors setting up the socket.
+#[derive(Debug, thiserror::Error)]
+pub enum ServerError {
+    /// Creating the directory, binding or setting the mode failed.
+    #[error("{action} {path}: {source}")]
+    Io {
+        /// What was being done.
+        action: &'static str,
+        /// The path.
+        path: std::path::PathBuf,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// Another server answers on the socket path.
+    #[error("another service is already listening on {0}")]
+    InUse(std::path::PathBuf),
+    /// Something other than a socket exists at the path; it is never removed.
+    #[error(
+        "operator.socket {path} is a {found}, not a socket; refusing to replace it (remove it or \
+         choose another operator.socket)"
+    )]
+    NotASocket {
+        /// The path.
+        path: std::path::PathBuf,
+        /// What was found there, e.g. `regular file`.
+        found: &'static str,
+    },
+    /// A socket file exists but connecting failed for another reason than "nobody listens", so
+    /// it cannot be called stale.
+    #[error("operator.socket {path}: cannot tell whether the existing socket is stale: {source}")]
+    Unprobeable {
+        /// The path.
+        path: std::path::PathBuf,
+        /// The connect error.
+        source: std::io::Error,
+    },
+}
+
+/// What a file type is called in errors.
+fn describe(t: std::fs::FileType) -> &'static str {
+    use std::os::unix::fs::FileTypeExt;
+    if t.is_file() {
+        "regular file"
+    } else if t.is_dir() {
+        "directory"
+    } else if t.is_symlink() {
+        "symbolic link"
+    } else if t.is_fifo() {
+        "named pipe"
+    } else if t.is_block_device() || t.is_char_device() {
+        "device"
+    } else {
+        "file of unknown type"
+    }
+}
+
+/// Binds the operator socket at `path` with mode 0660. An existing socket file is removed only
+/// when it is stale (connecting is refused: a crashed instance left it); a live server there,
+/// or anything that is not a socket (checked without following symlinks), is an error.
+pub async fn bind(path: &Path) -> Result<UnixListener, ServerError> {
+    let err = |action: &'static str| {
+        let path = path.to_owned();
+        move |source| ServerError::Io {
+            action,
+            path,
+            source,
+        }
+    };
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(err("create directory for"))?;
+    }
+    match std::fs::symlink_metadata(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) => return Err(err("inspect")(e)),
+        Ok(meta) => {
+            use std::os::unix::fs::FileTypeExt;
+            if !meta.file_type().is_socket() {
+                return Err(ServerError::NotASocket {
+                    path: path.to_owned(),
+                    found: describe(meta.file_type()),
+                });
+            }
+            match UnixStream::connect(path).await {
+                Ok(_) => return Err(ServerError::InUse(path.to_owned())),
+                Err(e) if e.kind() == std::io::ErrorKind::ConnectionRefused => {
+                    std::fs::remove_file(path).map_err(err("remove stale socket"))?;
+                }
+                Err(source) => {
+                    return Err(ServerError::Unprobeable {
+                        path: path.to_owned(),
+                        source,
+                    });
+                }
+            }
+        }
+    }
+    let listener = UnixListener::bind(path).map_err(err("bind"))?;
+    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o660))
+        .map_err(err("set mode 0660 on"))?;
+    Ok(listener)
+}
+
+/// Serves clients until `shutdown` becomes true; then stops accepting and closes connections.
+pub async fn serve<H: Handler>(
+    listener: UnixListener,
+    handler: Arc<H>,
+    policy: AccessPolicy,
+    limits: ServerLimits,
+    mut shutdown: watch::Receiver<bool>,
+) {
+    let clients = Arc::new(Semaphore::new(limits.max_clients));
+    let over_limit = Arc::new(Semaphore::new(limits.over_limit_connections));
+    loop {
+        let accepted = tokio::select! {
+            a = listener.accept() => a,
+            _ = shutdown.wait_for(|s| *s) => break,
+        };
+        let stream = match accepted {
+            Ok((s, _)) => s,
+            Err(e) => {
+                warn!(error = %e, "operator socket accept failed");
+                tokio::time::sleep(std::time::Duration::from_millis(10)).await;
+                continue;
+            }
+        };
+        // Credentials first: even an over-limit connection may execute `stop`.
+        match stream.peer_cred() {
+            Ok(cred) if policy.allows(cred.uid(), cred.gid()) => {}
+            Ok(cred) => {
+                warn!(
+                    uid = cred.uid(),
+                    gid = cred.gid(),
+                    "operator connection refused"
+                );
+                reject(
+                    stream,
+                    ErrorCode::NotReady,
+                    "permission denied: uid/gid not allowed by operator.allowed_uids/gids",
+                )
+                .await;
+                continue;
+            }
+            Err(e) => {
+                warn!(error = %e, "cannot read operator peer credentials");
+                continue;
+            }
+        }
+        let handler = handler.clone();
+        if let Ok(permit) = clients.clone().try_acquire_owned() {
+            let shutdown = shutdown.clone();
+            tokio::spawn(async move {
+                connection(stream, handler, limits, shutdown).await;
+                drop(permit);
+            });
+        } else if let Ok(permit) = over_limit.clone().try_acquire_owned() {
+            tokio::spawn(async move {
+                overflow::stop_only(stream, handler, limits).await;
+                drop(permit);
+            });
+        } else {
+            reject(stream, ErrorCode::Busy, overflow::TOO_MANY).await;
+        }
+    }
+    info!("operator socket closed");
+}
+
+async fn reject(mut stream: UnixStream, code: ErrorCode, message: &str) {
+    let mut line = Reply::err(None, OperatorError::new(code, message)).to_line();
+    line.push('\n');
+    let _ = stream.write_all(line.as_bytes()).await;
+}
+
+async fn connection<H: Handler>(
+    stream: UnixStream,
+    handler: Arc<H>,
+    limits: ServerLimits,
+    mut shutdown: watch::Receiver<bool>,
+) {
+    let (read, mut write) = stream.into_split();
+    let (out_tx, mut out_rx) = mpsc::channel::<String>(256);
+    let writer = tokio::spawn(async move {
+        while let Some(mut line) = out_rx.recv().await {
+            line.push('\n');
+            if write.write_all(line.as_bytes()).await.is_err() {
+                break;
+            }
+        }
+    });
+    let in_flight = Arc::new(Semaphore::new(limits.max_in_flight));
+    let mut reader = LineReader::new(read, limits.max_line_bytes);
+    let mut tasks = tokio::task::JoinSet::new();
+    loop {
+        // Idle: nothing in flight. The sleep restarts with every received line and every
+        // finished request; `next_frame` is cancel-safe (bytes read are kept in its buffer).
+        let idle = tasks.is_empty();
+        let frame = tokio::select! {
+            f = reader.next_frame() => Some(f),
+            Some(_) = tasks.join_next(), if !idle => continue,
+            () = tokio::time::sleep(limits.idle_timeout), if idle => None,
+            _ = shutdown.wait_for(|s| *s) => break,
+        };
+        let Some(frame) = frame else {
+            let e = OperatorError::new(
+                ErrorCode::Busy,
+                format!(
+                    "connection idle for {} s without a request; closed (operator.idle_timeout_s)",
+                    limits.idle_timeout.as_secs_f64()
+                ),
+            );
+            let _ = out_tx.send(Reply::err(None, e).to_line()).await;
+            debug!("closing idle operator connection");
+            break;
+        };
+        let line = match frame {
+            Ok(Some(Frame::Line(line))) => line,
+            Ok(Some(Frame::TooLarge)) => {
+                let e = OperatorError::new(
+                    ErrorCode::TooLarge,
+                    format!("request line longer than {} bytes", limits.max_line_bytes),
+                );
+                if out_tx.send(Reply::err(None, e).to_line()).await.is_err() {
+                    break;
+                }
+                continue;
+            }
+            Ok(None) => break,
+            Err(e) => {
+                debug!(error = %e, "operator connection read error");
+                break;
+            }
+        };
+        if line.iter().all(|b| b.is_ascii_whitespace()) {
+            continue;
+        }
+        let request = match parse_request(&line) {
+            Ok(r) => r,
+            Err((id, e)) => {
+                if out_tx.send(Reply::err(id, e).to_line()).await.is_err() {
+                    break;
+                }
+                continue;
+            }
+        };
+        let Ok(permit) = in_flight.clone().try_acquire_owned() else {
+            let e = OperatorError::new(ErrorCode::Busy, "too many requests in flight");
+            if out_tx
+                .send(Reply::err(Some(request.id), e).to_line())
+                .await
+                .is_err()
+            {
+                break;
+            }
+            continue;
+        };
+        let handler = handler.clone();
+        let out = out_tx.clone();
+        tasks.spawn(async move {
+            let sink = EventSink::new(Some(request.id), out.clone());
+            let reply = match handler.handle(request.command, sink).await {
+                Ok(result) => Reply::ok(Some(request.id), result),
+                Err(e) => Reply::err(Some(request.id), e),
+            };
+            let _ = out.send(reply.to_line()).await;
+            drop(permit);
+        });
+        // Reap finished tasks so the set does not grow on long-lived connections.
+        while tasks.try_join_next().is_some() {}
+    }
+    // The client closed its sending side: let running requests finish and reply (a client may
+    // half-close after its last request); on shutdown abort them instead.
+    loop {
+        tokio::select! {
+            next = tasks.join_next() => if next.is_none() { break },
+            _ = shutdown.wait_for(|s| *s) => { tasks.abort_all(); break }
+        }
+    }
+    drop(out_tx);
+    let _ = writer.await;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn root_and_own_uid_allowed_strangers_not() {
+        let p = AccessPolicy::default();
+        assert!(p.allows(0, 12345));
+        // SAFETY: no preconditions.
+        let own = unsafe { libc::geteuid() };
+        assert!(p.allows(own, 12345));
+        assert!(!p.allows(54321, 54321) || own == 54321);
+        let p = AccessPolicy {
+            allowed_uids: vec![1000],
+            allowed_gids: vec![2000],
+        };
+        assert!(p.allows(1000, 1));
+        assert!(p.allows(4242, 2000));
+        assert!(!p.allows(4242, 4242) || own == 4242);
+    }
+}

@@ -1,0 +1,216 @@
+//! One commanded move of a workflow: ask the loop, follow the published states and events, and
+//! end with arrival or with the true cause (stop, collision, command mode lost, controller
+//! restarted or silent).
+
+use std::time::Duration;
+
+use tokio::sync::broadcast::error::RecvError;
+use tokio::time::Instant;
+
+use super::{
+    ARRIVAL_TIMEOUT_S, ARRIVAL_TOLERANCE, MOVE_RETRIES, MOVE_START_TIMEOUT_S, MOVE_TIMEOUT_S,
+    ServiceCore, WORKFLOW_THRESHOLD_FACTOR, err,
+};
+use crate::service::events::{AbortReason, RtEvent};
+use crate::service::rt::RtRequest;
+use fri_api::cause::Cause;
+use fri_api::ipc::flags;
+use fri_api::protocol::{ErrorCode, OperatorError};
+
+/// What one published state means for a residual check against `baseline`: the joint whose
+/// residual changed by more than `factor` × its threshold, with the change. States whose
+/// residual is invalid (monitor warming up) say nothing.
+pub(super) fn residual_change(
+    state: &crate::ipc::RobotState,
+    baseline: &[f64; 7],
+    thresholds: &[f64; 7],
+) -> Option<Cause> {
+    if state.flags & flags::RESIDUAL_INVALID != 0 {
+        return None;
+    }
+    (0..7).find_map(|j| {
+        let change = state.residual[j] - baseline[j];
+        let limit = WORKFLOW_THRESHOLD_FACTOR * thresholds[j];
+        (change.abs() > limit).then_some(Cause::ResidualChange {
+            joint: j + 1,
+            change_nm: change,
+            limit_nm: limit,
+        })
+    })
+}
+
+/// A timer for "no state for `timeout`" that does not fire after a pause of this process: when
+/// it wakes far later than asked (SIGSTOP, host stall), the silence was ours, not the
+/// controller's, and it starts over.
+pub(super) struct SilenceTimer {
+    timeout: Duration,
+}
+
+impl SilenceTimer {
+    /// A timer for `timeout`.
+    pub(super) fn new(timeout: Duration) -> Self {
+        Self { timeout }
+    }
+
+    /// Waits for one silence of `timeout` that was not a pause of this process; returns it.
+    pub(super) async fn silence(&self) -> Duration {
+        loop {
+            let armed = Instant::now();
+            tokio::time::sleep(self.timeout).await;
+            let slept = armed.elapsed();
+            if slept < self.timeout * 2 {
+                return slept;
+            }
+        }
+    }
+}
+
+impl ServiceCore {
+    /// Why a published state ends a workflow step: the arm is held, or (with `baseline`) the
+    /// residual changed beyond the workflow threshold; `context` says where ("while sampling").
+    pub(super) fn state_abort(
+        &self,
+        state: &crate::ipc::RobotState,
+        baseline: Option<&[f64; 7]>,
+        thresholds: &[f64; 7],
+        context: &str,
+    ) -> Option<OperatorError> {
+        if state.flags & flags::STOPPED != 0 {
+            return Some(self.stopped_error());
+        }
+        let cause = residual_change(state, baseline?, thresholds)?;
+        let message = format!("{} {context}", describe_change(&cause));
+        Some(err(ErrorCode::Aborted, message).with_cause(cause))
+    }
+
+    /// Moves to `target` in command mode and waits for the arrival; aborts on a collision,
+    /// a stop, or loss of command mode (after [`MOVE_RETRIES`] re-drives), each with its cause.
+    /// With `baseline`, a residual change beyond the workflow threshold aborts the move.
+    pub async fn move_to(
+        &self,
+        target: [f64; 7],
+        baseline: Option<[f64; 7]>,
+    ) -> Result<(), OperatorError> {
+        let thresholds = self.persistent(|s| s.thresholds);
+        let latest = self.latest()?;
+        if latest.flags & flags::STOPPED != 0 {
+            return Err(err(
+                ErrorCode::NotReady,
+                "the arm is stopped (operator stop or collision reaction); `resume` first",
+            )
+            .with_cause(Cause::Held));
+        }
+        let limits = self.model.limits();
+        for (j, t) in target.iter().enumerate() {
+            let inside = (limits.position_min[j]..=limits.position_max[j]).contains(t);
+            if !inside {
+                return Err(err(
+                    ErrorCode::InvalidArguments,
+                    format!("target of joint {} outside its limits", j + 1),
+                ));
+            }
+        }
+        let mut states = self.shared.subscribe_states();
+        let mut events = self.shared.subscribe_events();
+        self.send(RtRequest::MoveTo(target))?;
+        let silence = SilenceTimer::new(self.connection_timeout());
+        let mut start = Instant::now();
+        let mut seen_moving = false;
+        let mut ended_at = None;
+        let mut retries = 0;
+        loop {
+            let timeout = if seen_moving {
+                MOVE_TIMEOUT_S
+            } else {
+                MOVE_START_TIMEOUT_S
+            };
+            let deadline = start + Duration::from_secs_f64(timeout);
+            tokio::select! {
+                s = states.recv() => match s {
+                    Ok(s) => {
+                        if let Some(e) = self.state_abort(&s, baseline.as_ref(), &thresholds, "during the move: contact? (arm stopped; `resume` to continue)") {
+                            // A residual change: hold the arm, as a reaction would.
+                            if s.flags & flags::STOPPED == 0 {
+                                let _ = self.send(RtRequest::Stop);
+                            }
+                            return Err(e);
+                        }
+                        if s.flags & flags::MOVING != 0 {
+                            seen_moving = true;
+                        } else if seen_moving {
+                            // The set-point is at the target; wait for the arm to follow.
+                            let off = (0..7).map(|j| (s.q[j] - target[j]).abs()).fold(0.0, f64::max);
+                            let ended = *ended_at.get_or_insert(s.time_s);
+                            if off <= ARRIVAL_TOLERANCE {
+                                return Ok(());
+                            }
+                            if s.time_s - ended > ARRIVAL_TIMEOUT_S {
+                                return Err(err(ErrorCode::Failed, format!("the arm stayed {off:.4} rad from the target")));
+                            }
+                        }
+                    }
+                    Err(RecvError::Lagged(_)) => {}
+                    Err(RecvError::Closed) => return Err(err(ErrorCode::NotReady, "the FRI loop has stopped")),
+                },
+                e = events.recv() => match e {
+                    Ok(RtEvent::Collision(c)) => {
+                        super::await_stopped_state(&mut states).await;
+                        return Err(err(ErrorCode::Aborted, format!("collision detected (link {}) at {:.3} s", c.link, c.time_s)).with_cause(Cause::Collision { link: c.link, time_s: c.time_s, residual: c.residual }));
+                    }
+                    Ok(RtEvent::Stopped { reason, fri, .. }) => {
+                        super::await_stopped_state(&mut states).await;
+                        return Err(Self::stop_error(reason, fri));
+                    }
+                    Ok(RtEvent::MoveAborted { reason, fri, .. }) => match reason {
+                        AbortReason::Held | AbortReason::Braked => return Err(self.stopped_error()),
+                        AbortReason::Unplannable => return Err(err(ErrorCode::Failed, "the move could not be planned from the current set-point")),
+                        AbortReason::CommandModeLost | AbortReason::ControllerRestarted => {
+                            if retries >= MOVE_RETRIES {
+                                let cause = if reason == AbortReason::ControllerRestarted {
+                                    Cause::ControllerRestarted { fri }
+                                } else {
+                                    Cause::CommandModeLost { retries, fri }
+                                };
+                                return Err(err(ErrorCode::Aborted, format!("move aborted: {} ({}) after {retries} retries", reason.describe(), fri.describe())).with_cause(cause));
+                            }
+                            // The loop re-requests command mode; drive the move again from where
+                            // the arm is.
+                            retries += 1;
+                            tracing::warn!(retries, reason = reason.describe(), fri = %fri.describe(), "move interrupted; retrying");
+                            self.send(RtRequest::MoveTo(target))?;
+                            seen_moving = false;
+                            ended_at = None;
+                            start = Instant::now();
+                        }
+                    },
+                    _ => {}
+                },
+                silent = silence.silence() => {
+                    return Err(self.silent_error(silent.as_secs_f64()));
+                }
+                _ = tokio::time::sleep_until(deadline) => {
+                    return Err(if seen_moving {
+                        err(ErrorCode::NotReady, "the move did not finish in time")
+                    } else {
+                        err(ErrorCode::NotReady, "command mode was not entered (check the KRL program, quality and drives)")
+                            .with_cause(Cause::CommandModeNotEntered { fri: self.fri_context() })
+                    });
+                }
+            }
+        }
+    }
+}
+
+/// Operator text of a [`Cause::ResidualChange`].
+pub(super) fn describe_change(cause: &Cause) -> String {
+    match cause {
+        Cause::ResidualChange {
+            joint,
+            change_nm,
+            limit_nm,
+        } => format!(
+            "residual of joint {joint} changed by {change_nm:+.1} Nm (limit ±{limit_nm:.1} Nm)"
+        ),
+        other => format!("{other:?}"),
+    }
+}

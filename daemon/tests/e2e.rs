@@ -1,0 +1,727 @@
+//! End-to-end: the service against the mock robot in lockstep over UDP loopback, driven through
+//! the operator socket.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+use std::net::SocketAddr;
+use std::time::Duration;
+
+use fri_api::client::Client;
+use fri_api::protocol::Command;
+use fri_service::config::Config;
+use fri_service::testkit::{InProcess, local_config};
+use mock_robot::SimulationConfig;
+use mock_robot::{ServerConfig, TimingMode};
+use serde_json::Value;
+
+struct Harness {
+    dir: tempfile::TempDir,
+    service: InProcess,
+    fri: SocketAddr,
+}
+
+fn test_config(dir: &std::path::Path) -> Config {
+    let mut c = local_config(dir, "e2e");
+    // Faster moves than the conservative defaults keep the tests short.
+    c.fri.max_joint_step = 1.0e-3;
+    c.motion.max_velocity = [0.9; 7];
+    c.motion.max_acceleration = [5.0; 7];
+    c.motion.max_jerk = [100.0; 7];
+    c.estimation.average_s = 0.2;
+    c.estimation.settle_window_s = 0.05;
+    c.estimation.settle_timeout_s = 0.5;
+    c
+}
+
+impl Harness {
+    async fn start(config: Config, dir: tempfile::TempDir) -> Self {
+        let service = InProcess::start(config).await.unwrap();
+        Self {
+            dir,
+            fri: service.fri,
+            service,
+        }
+    }
+
+    async fn client(&self) -> Client {
+        self.service.client().await.unwrap()
+    }
+
+    async fn stop(self) -> tempfile::TempDir {
+        self.service.stop().await.unwrap();
+        self.dir
+    }
+}
+
+fn sim(payload: bool, seed: u64) -> SimulationConfig {
+    let mut c = SimulationConfig {
+        seed,
+        ..SimulationConfig::default()
+    };
+    c.payload.attached_at_start = payload;
+    c
+}
+
+/// The 6-pose ±7° tare of the tests.
+fn six_pose_tare() -> Command {
+    Command::Tare {
+        around: None,
+        poses: Some(6),
+        step_deg: Some(7.0),
+        pattern: None,
+    }
+}
+
+/// `config` armed, reacting with a stop.
+fn armed_to_stop(mut config: Config) -> Config {
+    config.observer.armed = true;
+    config.reaction.policy = fri_service::config::ReactionPolicy::Stop;
+    config
+}
+
+/// An 80 N half-sine push of 0.3 s on link 4 (along y of its frame) starting at `onset_s`.
+fn push_on_link_4(onset_s: f64) -> mock_robot::contact::ContactSpec {
+    mock_robot::contact::ContactSpec {
+        link: 4,
+        point_m: [0.0, 0.0, 0.0],
+        onset_s,
+        profile: mock_robot::contact::ContactProfile::HalfSine {
+            peak_force_n: [0.0, 80.0, 0.0],
+            duration_s: 0.3,
+        },
+    }
+}
+
+fn lockstep() -> TimingMode {
+    TimingMode::Lockstep {
+        answer_timeout: Duration::from_millis(200),
+    }
+}
+
+async fn call(c: &mut Client, cmd: Command) -> Result<Value, fri_api::protocol::OperatorError> {
+    c.call(cmd, |_, _| {}).await.unwrap()
+}
+
+async fn wait_connected(c: &mut Client) -> Value {
+    for _ in 0..500 {
+        let s = call(c, Command::Status).await.unwrap();
+        if s["connected"].as_bool() == Some(true) {
+            return s;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    panic!("service never saw the controller");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn tare_then_estimate_through_the_socket_and_persist_after_restart() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut config = test_config(dir.path());
+    // The uncompensated payload would trip the monitor: the paper's point. Estimation runs
+    // with the monitor disarmed and contacts caught by the workflow's residual-change check.
+    config.observer.armed = false;
+    let h = Harness::start(config.clone(), dir).await;
+
+    // Tare without payload.
+    let driver =
+        mock_robot::spawn_new(sim(false, 7), ServerConfig::loopback(h.fri, lockstep())).unwrap();
+    let mut c = h.client().await;
+    wait_connected(&mut c).await;
+    let mut progress = 0;
+    let tare = c
+        .call(
+            Command::Tare {
+                around: None,
+                poses: Some(6),
+                step_deg: Some(7.0),
+                pattern: None,
+            },
+            |ev, _| {
+                assert_eq!(ev, "progress");
+                progress += 1;
+            },
+        )
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(tare["samples"], 6);
+    assert!(progress >= 18, "progress events: {progress}");
+    eprintln!(
+        "tare: {} cycles, {:?}",
+        driver.counters().answer_counts().sent,
+        driver.counters().answer_counts()
+    );
+    // Payload attached to the same simulated robot: its model error, offsets and drift carry
+    // on, and the estimate's noise is independent of the tare's.
+    let mut robot = driver.join().unwrap().0;
+    robot.set_payload_attached(true);
+    let driver = mock_robot::spawn(robot, ServerConfig::loopback(h.fri, lockstep())).unwrap();
+    // The resumed controller sends from a new port: the service binds it once the old one has
+    // been silent for `fri.resync_after_s` (docs/fri.md, "Source binding and restarts").
+    for _ in 0..500 {
+        if driver.counters().answer_counts().answered > 50 {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    assert!(
+        driver.counters().answer_counts().answered > 50,
+        "{:?}",
+        driver.counters().answer_counts()
+    );
+    let status = call(&mut c, Command::Status).await.unwrap();
+    assert_eq!(
+        status["fri"]["statistics"]["sequence"]["rebinds"], 1,
+        "{status}"
+    );
+    let est = call(
+        &mut c,
+        Command::EstimatePayload {
+            around: None,
+            poses: Some(6),
+            step_deg: Some(7.0),
+            pattern: None,
+            use_tare: None,
+            apply: Some(true),
+        },
+    )
+    .await
+    .unwrap();
+    let sim_done = driver.join().unwrap().0;
+    let truth = sim_done.true_payload().unwrap();
+    let m_true = truth.mass;
+    let c_true = truth.com().unwrap();
+    let mass = est["mass"].as_f64().unwrap();
+    let com: Vec<f64> = est["com"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    eprintln!("estimate {est}");
+    assert_eq!(est["tare_used"], true);
+    assert!(
+        ((mass - m_true) / m_true).abs() < 0.005,
+        "mass {mass} vs {m_true}"
+    );
+    for k in 0..3 {
+        assert!(
+            (com[k] - c_true[k]).abs() < 0.005,
+            "com {com:?} vs {c_true:?}"
+        );
+    }
+    assert!(est["mass_std"].as_f64().unwrap() > 0.0);
+    let status = call(&mut c, Command::Status).await.unwrap();
+    assert_eq!(status["payload"]["mass"].as_f64().unwrap(), mass);
+
+    // Restart the service on the same state directory: the payload comes back.
+    let dir = h.stop().await;
+    let h = Harness::start(config, dir).await;
+    let mut c = h.client().await;
+    let status = call(&mut c, Command::Status).await.unwrap();
+    assert_eq!(status["payload"]["mass"].as_f64().unwrap(), mass);
+    assert_eq!(status["tare_samples"], 6);
+    h.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn collision_during_a_workflow_stops_the_arm_and_aborts() {
+    let dir = tempfile::tempdir().unwrap();
+    let h = Harness::start(armed_to_stop(test_config(dir.path())), dir).await;
+    let mut sim_config = sim(false, 3);
+    // A push on link 4 while the pattern is running (it starts ≈ 0.2 s into the run and lasts ≥ 4 s).
+    sim_config.contacts = vec![push_on_link_4(2.5)];
+    // Real time: the contact must come while the pattern runs, which lockstep cannot place.
+    let driver = mock_robot::spawn_new(
+        sim_config,
+        ServerConfig::loopback(h.fri, TimingMode::RealTime),
+    )
+    .unwrap();
+    let mut c = h.client().await;
+    wait_connected(&mut c).await;
+    let events = collect_watch(h.client().await, None);
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    let e = call(&mut c, six_pose_tare()).await.unwrap_err();
+    assert_eq!(e.code, fri_api::protocol::ErrorCode::Aborted, "{e:?}");
+    let status = call(&mut c, Command::Status).await.unwrap();
+    assert_eq!(status["stopped"], true, "aborted with {e:?}; then {status}");
+    // A move is refused while stopped.
+    let e = call(
+        &mut c,
+        Command::Tare {
+            around: None,
+            poses: Some(2),
+            step_deg: Some(7.0),
+            pattern: None,
+        },
+    )
+    .await
+    .unwrap_err();
+    assert_eq!(e.code, fri_api::protocol::ErrorCode::NotReady, "{e:?}");
+    {
+        let evs = events.lock().unwrap();
+        let collision = evs
+            .iter()
+            .find(|(e, _)| e == "collision")
+            .expect("collision event");
+        let t = collision.1["time_s"].as_f64().unwrap();
+        assert!(t > 2.5 && t < 2.7, "detected at {t}");
+        assert!(
+            evs.iter()
+                .any(|(e, d)| e == "stopped" && d["reason"] == "collision")
+        );
+    }
+    // Resume clears the stop once the contact is gone.
+    call(&mut c, Command::Resume).await.unwrap();
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let status = call(&mut c, Command::Status).await.unwrap();
+    assert_eq!(status["stopped"], false, "{status}");
+    drop(driver.join());
+    h.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn loss_bursts_and_a_controller_restart_are_survived() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut config = test_config(dir.path());
+    config.observer.armed = false;
+    let h = Harness::start(config, dir).await;
+    let mut sim_config = sim(false, 5);
+    sim_config.network.bursts = vec![
+        mock_robot::faults::LossBurst {
+            start_s: 0.2,
+            duration_s: 0.05,
+        },
+        // Inside the first moves: command mode is dropped (answers missed) and re-entered.
+        mock_robot::faults::LossBurst {
+            start_s: 1.6,
+            duration_s: 0.03,
+        },
+    ];
+    sim_config.restarts_s = vec![0.6];
+    let driver =
+        mock_robot::spawn_new(sim_config, ServerConfig::loopback(h.fri, lockstep())).unwrap();
+    let mut c = h.client().await;
+    wait_connected(&mut c).await;
+    while driver.counters().answer_counts().sent < 1000 {
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    let tare = call(
+        &mut c,
+        Command::Tare {
+            around: None,
+            poses: Some(3),
+            step_deg: Some(5.0),
+            pattern: None,
+        },
+    )
+    .await
+    .unwrap();
+    assert_eq!(tare["samples"], 3);
+    let status = call(&mut c, Command::Status).await.unwrap();
+    let seq = &status["fri"]["statistics"]["sequence"];
+    eprintln!("sequence counters after faults: {seq}");
+    assert!(seq["restarted"].as_u64().unwrap() >= 1, "{seq}");
+    let sim = driver.join().unwrap().0;
+    let rc = sim.receive_counters();
+    eprintln!("controller receive counters: {rc:?}");
+    // The bursts cost answers (the controller counted them as missed) and the service carried on.
+    assert!(rc.missed_cycles >= 50, "{rc:?}");
+    assert!(rc.restarts >= 1, "{rc:?}");
+    h.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn malformed_operator_input_never_disturbs_the_loop() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = test_config(dir.path());
+    let h = Harness::start(config, dir).await;
+    let driver =
+        mock_robot::spawn_new(sim(false, 9), ServerConfig::loopback(h.fri, lockstep())).unwrap();
+    let mut c = h.client().await;
+    let before = wait_connected(&mut c).await["cycle"].as_u64().unwrap();
+    let mut raw = h.client().await;
+    let mut junk: Vec<u8> = Vec::new();
+    junk.extend_from_slice(b"{\"id\":1,\"cmd\":\"status\"\n"); // truncated JSON
+    junk.extend_from_slice(b"\x00\x01\x02\n");
+    junk.extend_from_slice(&vec![b'A'; 200_000]);
+    junk.extend_from_slice(b"\n{\"id\":2,\"cmd\":\"apply-payload\",\"mass\":-5,\"com\":[0,0,0]}\n");
+    junk.extend_from_slice(b"{\"id\":3,\"cmd\":\"collision\",\"action\":\"configure\",\"thresholds\":[1,1,1,1,1,1,-1]}\n");
+    junk.extend_from_slice(b"{\"id\":4,\"cmd\":\"self-destruct\"}\n");
+    raw.send_raw(&junk).await.unwrap();
+    let mut codes = Vec::new();
+    for _ in 0..6 {
+        match raw.next_reply().await.unwrap() {
+            fri_api::protocol::Reply::Err { error, .. } => codes.push(error.code),
+            other => panic!("unexpected {other:?}"),
+        }
+    }
+    use fri_api::protocol::ErrorCode as E;
+    // Valid requests run concurrently, so replies may come in any order.
+    let mut expected = vec![
+        E::Malformed,
+        E::Malformed,
+        E::TooLarge,
+        E::InvalidArguments,
+        E::InvalidArguments,
+        E::UnknownCommand,
+    ];
+    let key = |c: &E| format!("{c:?}");
+    codes.sort_by_key(key);
+    expected.sort_by_key(key);
+    assert_eq!(codes, expected);
+    // The loop kept running and the payload was not changed.
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    let status = call(&mut c, Command::Status).await.unwrap();
+    assert!(status["cycle"].as_u64().unwrap() > before);
+    assert!(status["payload"].is_null());
+    assert_eq!(status["monitor"]["thresholds"][6], 6.0);
+    drop(driver.join());
+    h.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn unbounded_pattern_centres_thresholds_and_gains_are_rejected_and_nothing_moves() {
+    use fri_api::protocol::{CollisionAction, ErrorCode};
+    let dir = tempfile::tempdir().unwrap();
+    let config = test_config(dir.path());
+    let h = Harness::start(config, dir).await;
+    let driver =
+        mock_robot::spawn_new(sim(false, 17), ServerConfig::loopback(h.fri, lockstep())).unwrap();
+    let mut c = h.client().await;
+    let q: Vec<f64> = wait_connected(&mut c).await["q"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    let q: [f64; 7] = q.try_into().unwrap();
+    let estimate = |around: [f64; 7]| Command::EstimatePayload {
+        around: Some(around),
+        poses: Some(3),
+        step_deg: Some(7.0),
+        pattern: None,
+        use_tare: None,
+        apply: Some(true),
+    };
+    // Inside the joint limits but 0.6 rad from the measured pose on joint 4.
+    let mut far = q;
+    far[3] += 0.6;
+    // Inside the limits and near enough, but joint 2 within 7° + 5° of its 120° limit.
+    let mut near_limit = q;
+    near_limit[1] = 115f64.to_radians();
+    let configure = |thresholds, gains| Command::Collision {
+        action: CollisionAction::Configure,
+        thresholds,
+        gains,
+    };
+    let cases = [
+        (estimate([1e300; 7]), "around[0] = 1e300 rad is outside"),
+        (estimate(far), "around[3]"),
+        (
+            Command::Tare {
+                around: Some(near_limit),
+                poses: Some(3),
+                step_deg: Some(7.0),
+                pattern: None,
+            },
+            "around[1]",
+        ),
+        (
+            configure(Some([1e300; 7]), None),
+            "thresholds[0] = 1e300 Nm",
+        ),
+        (configure(None, Some([1e308; 7])), "gains[0] = 1e308 1/s"),
+    ];
+    for (command, expected) in cases {
+        let e = call(&mut c, command).await.unwrap_err();
+        assert_eq!(e.code, ErrorCode::InvalidArguments, "{e:?}");
+        assert!(e.message.starts_with(expected), "{}", e.message);
+    }
+    let e = call(&mut c, estimate(far)).await.unwrap_err();
+    assert!(
+        e.message
+            .contains("motion.max_around_distance_rad = 0.5 rad"),
+        "{}",
+        e.message
+    );
+    // The monitor is unchanged and armed with its finite thresholds; the arm did not move.
+    let status = call(&mut c, Command::Status).await.unwrap();
+    assert_eq!(status["monitor"]["armed"], true);
+    assert_eq!(status["monitor"]["thresholds"][0], 6.0);
+    assert_eq!(status["monitor"]["gains"][0], 400.0);
+    assert_eq!(status["command_mode"], false, "{status}");
+    for j in 0..7 {
+        let now = status["q"][j].as_f64().unwrap();
+        assert!((now - q[j]).abs() < 1e-3, "joint {j}: {now} vs {}", q[j]);
+    }
+    drop(driver.join());
+    h.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn iceoryx2_subscriber_receives_the_service_state() {
+    use fri_service::ipc::publisher::open_service;
+    use fri_service::ipc::{IpcNames, RobotState};
+    let dir = tempfile::tempdir().unwrap();
+    let config = test_config(dir.path());
+    let names = IpcNames {
+        service_prefix: config.iceoryx2.service_prefix.clone(),
+        global_prefix: config.iceoryx2.global_prefix.clone(),
+    };
+    let h = Harness::start(config, dir).await;
+    let driver =
+        mock_robot::spawn_new(sim(false, 11), ServerConfig::loopback(h.fri, lockstep())).unwrap();
+    let mut c = h.client().await;
+    wait_connected(&mut c).await;
+    // iceoryx2 ports are not Send: subscribe on a plain thread.
+    let received = std::thread::spawn(move || {
+        let node = names.node().unwrap();
+        let sub = open_service::<RobotState>(&node, &names.state(), 1)
+            .unwrap()
+            .subscriber_builder()
+            .create()
+            .unwrap();
+        let mut got = Vec::new();
+        let t0 = std::time::Instant::now();
+        while got.len() < 50 && t0.elapsed() < Duration::from_secs(20) {
+            while let Some(s) = sub.receive().unwrap() {
+                got.push(*s.payload());
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        got
+    })
+    .join()
+    .unwrap();
+    assert!(received.len() >= 50, "received {}", received.len());
+    assert!(received.windows(2).all(|w| w[1].cycle > w[0].cycle));
+    let last = received.last().unwrap();
+    // At rest at the mock's initial pose (deg 0, 30, 0, -60, 0, 60, 0).
+    assert!(
+        (last.q[1] - 30f64.to_radians()).abs() < 0.01,
+        "{:?}",
+        last.q
+    );
+    assert_eq!(last.fri_state, 1);
+    assert!(last.gravity[1].abs() > 1.0);
+    drop(driver.join());
+    h.stop().await;
+}
+
+/// Collects every event of a `watch` (with every `state_every`-th state) on its own connection.
+fn collect_watch(
+    mut watcher: Client,
+    state_every: Option<u32>,
+) -> std::sync::Arc<std::sync::Mutex<Vec<(String, Value)>>> {
+    let events = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let sink = events.clone();
+    tokio::spawn(async move {
+        let _ = watcher
+            .call(Command::Watch { state_every }, |e, d| {
+                sink.lock().unwrap().push((e.to_owned(), d.clone()));
+            })
+            .await;
+    });
+    events
+}
+
+/// The controller dies mid-workflow: the tare fails at once with `controller-silent`, `status`
+/// says disconnected, and `stop` says that nothing is commanded.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_vanished_controller_fails_the_workflow_at_once_with_its_cause() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = test_config(dir.path());
+    let h = Harness::start(config, dir).await;
+    let driver = mock_robot::spawn_new(
+        sim(false, 17),
+        ServerConfig::loopback(h.fri, TimingMode::RealTime),
+    )
+    .unwrap();
+    let mut c = h.client().await;
+    wait_connected(&mut c).await;
+    let killer = tokio::spawn(async move {
+        tokio::time::sleep(Duration::from_millis(700)).await;
+        drop(driver.join());
+    });
+    let started = std::time::Instant::now();
+    let e = call(&mut c, six_pose_tare()).await.unwrap_err();
+    killer.await.unwrap();
+    assert!(
+        matches!(
+            e.cause.as_deref(),
+            Some(fri_api::cause::Cause::ControllerSilent { .. })
+        ),
+        "{e:?}"
+    );
+    // Not the 120 s move timeout: the silence ends the workflow (loose bound, not a timing).
+    assert!(started.elapsed() < Duration::from_secs(30));
+    let status = call(&mut c, Command::Status).await.unwrap();
+    assert_eq!(status["connected"], false, "{status}");
+    let stop = call(&mut c, Command::Stop).await.unwrap();
+    assert_eq!(stop["controller"], "silent", "{stop}");
+    h.stop().await;
+}
+
+/// After a controller restart no published residual comes from an unsynchronised observer:
+/// it is `null` (NaN, flagged) during the warm-up and small otherwise.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn no_residual_from_an_unsynchronised_observer_is_published() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = test_config(dir.path());
+    let h = Harness::start(config, dir).await;
+    let mut sim_config = sim(false, 19);
+    sim_config.restarts_s = vec![0.5, 1.2];
+    let driver =
+        mock_robot::spawn_new(sim_config, ServerConfig::loopback(h.fri, lockstep())).unwrap();
+    let mut c = h.client().await;
+    wait_connected(&mut c).await;
+    let events = collect_watch(h.client().await, Some(1));
+    while driver.counters().answer_counts().sent < 2500 {
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    drop(driver.join());
+    // A copy: no std mutex guard may be held across the `await` below.
+    let events = events.lock().unwrap().clone();
+    let mut invalid = 0;
+    let mut valid = 0;
+    for (kind, d) in events.iter() {
+        if kind != "state" {
+            continue;
+        }
+        let invalid_flag =
+            d["flags"].as_u64().unwrap() & u64::from(fri_api::ipc::flags::RESIDUAL_INVALID) != 0;
+        for r in d["residual"].as_array().unwrap() {
+            match r.as_f64() {
+                Some(x) => {
+                    assert!(!invalid_flag, "a value while flagged invalid: {d}");
+                    assert!(x.abs() < 20.0, "residual {x} Nm without contact: {d}");
+                    valid += 1;
+                }
+                None => {
+                    assert!(invalid_flag, "null residual without the flag: {d}");
+                    invalid += 1;
+                }
+            }
+        }
+    }
+    assert!(
+        valid > 1000 && invalid > 0,
+        "valid {valid}, invalid {invalid}"
+    );
+    assert!(
+        events.iter().any(|(k, d)| k == "monitor-restarted"
+            && d["reason"]["kind"] == "controller-restarted"),
+        "no restart seen"
+    );
+    drop(events);
+    h.stop().await;
+}
+
+/// The documented workflow on the running service in real time: disarm, grasp (the
+/// uncompensated payload trips the detector, silently), apply the payload, arm; a contact during
+/// the next move stops the arm (issue 10, item 1: the reaction used to stay latched).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn disarm_grasp_apply_arm_and_a_contact_stops_the_arm() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut config = armed_to_stop(test_config(dir.path()));
+    // The default (paper-like) speeds: the applied payload compensates gravity only, so fast
+    // moves would show its inertia as residual (issue 14's subject, not this test's).
+    config.motion = Config::default().motion;
+    let h = Harness::start(config, dir).await;
+    let mut sim_config = sim(false, 23);
+    sim_config.payload.events = vec![mock_robot::config::PayloadEvent {
+        time_s: 1.0,
+        action: mock_robot::config::PayloadAction::Attach,
+    }];
+    sim_config.contacts = vec![push_on_link_4(4.0)];
+    let (mass, com) = (sim_config.payload.mass_kg, sim_config.payload.com_m);
+    let driver = mock_robot::spawn_new(
+        sim_config,
+        ServerConfig::loopback(h.fri, TimingMode::RealTime),
+    )
+    .unwrap();
+    let mut c = h.client().await;
+    wait_connected(&mut c).await;
+    let events = collect_watch(h.client().await, None);
+    call(
+        &mut c,
+        Command::Collision {
+            action: fri_api::protocol::CollisionAction::Disarm,
+            thresholds: None,
+            gains: None,
+        },
+    )
+    .await
+    .unwrap();
+    // The payload is picked up at 1 s: far over the 6 Nm threshold, uncompensated.
+    while driver.counters().answer_counts().sent < 1500 {
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    // (A loaded host can pause the loop long enough for a monitor restart: its residual is
+    // `null` during the 50 ms warm-up.)
+    let mut status = call(&mut c, Command::Status).await.unwrap();
+    for _ in 0..100 {
+        if status["residual"][1].is_f64() {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+        status = call(&mut c, Command::Status).await.unwrap();
+    }
+    let r2 = status["residual"][1].as_f64().unwrap_or(0.0);
+    assert!(r2.abs() > 6.0, "the uncompensated payload shows: {status}");
+    assert_eq!(status["stopped"], false, "disarmed: nothing holds the arm");
+    call(&mut c, Command::ApplyPayload { mass, com })
+        .await
+        .unwrap();
+    tokio::time::sleep(Duration::from_millis(50)).await;
+    call(
+        &mut c,
+        Command::Collision {
+            action: fri_api::protocol::CollisionAction::Arm,
+            thresholds: None,
+            gains: None,
+        },
+    )
+    .await
+    .unwrap();
+    let e = call(
+        &mut c,
+        Command::EstimatePayload {
+            around: None,
+            poses: Some(6),
+            step_deg: Some(7.0),
+            pattern: None,
+            use_tare: Some(false),
+            apply: Some(false),
+        },
+    )
+    .await
+    .unwrap_err();
+    assert!(
+        matches!(
+            e.cause.as_deref(),
+            Some(fri_api::cause::Cause::Collision { .. })
+        ),
+        "{e:?}"
+    );
+    let status = call(&mut c, Command::Status).await.unwrap();
+    assert_eq!(status["stopped"], true, "the arm is held: {status}");
+    {
+        let evs = events.lock().unwrap();
+        let collisions: Vec<f64> = evs
+            .iter()
+            .filter(|(k, _)| k == "collision")
+            .map(|(_, d)| d["time_s"].as_f64().unwrap())
+            .collect();
+        assert!(
+            !collisions.is_empty() && collisions.iter().all(|t| *t > 3.9),
+            "only the contact is a collision: {collisions:?}"
+        );
+        assert!(
+            evs.iter()
+                .any(|(k, d)| k == "stopped" && d["reason"] == "collision")
+        );
+    }
+    drop(driver.join());
+    h.stop().await;
+}

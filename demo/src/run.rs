@@ -1,0 +1,777 @@
+//! `fri-service demo`: the paper's pick-estimate-and-move experiment against the embedded mock
+//! robot, through the real service and its operator socket.
+//!
+//! 1. Tare: the 10-pose ±7° pattern without payload (controller run 1).
+//! 2. Estimate: the same pattern with the paper's 3.028 kg payload at (0, 0, 0.119) m in frame 7
+//!    (controller run 2: the payload is attached while the arm is parked), applied to the observer.
+//! 3. Free motion with three contacts at 1, 8 and 17 s (controller run 3, KRL-side motion in
+//!    monitor mode), recorded by the service; the residual is evaluated with the estimate
+//!    (compensated) and without it (uncompensated, the paper's problem), at the 6 Nm threshold.
+//! 4. SVG plots in the style of the paper's Fig. 5 and Fig. 6.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::{Context as _, bail};
+use dynamics::{Data, InertialParameters};
+use mock_robot::SimulationConfig;
+use mock_robot::contact::{ContactProfile, ContactSpec};
+use mock_robot::motion::MotionSegment;
+use nalgebra::{SVector, Vector3};
+use safety::{CollisionDetector, CollisionMonitor, Detection, ObserverInput, PayloadCompensation};
+use serde::Serialize;
+use serde_json::{Value, json};
+use tokio::sync::watch;
+
+use super::plots::{self, Panel, Series};
+use fri_api::client::Client;
+use fri_api::protocol::{CollisionAction, Command, RecordKind};
+use fri_service::config::{Config, ReactionPolicy};
+use fri_service::service::RunningService;
+use mock_robot::server::{ServerConfig, TimingMode};
+
+type V7 = SVector<f64, 7>;
+
+/// The paper's payload (Sec. VI, eq. 39): mass, kg.
+pub const PAYLOAD_MASS: f64 = 3.028;
+/// The paper's payload CoM in frame 7, m.
+pub const PAYLOAD_COM: [f64; 3] = [0.0, 0.0, 0.119];
+/// The paper's 10-sample estimate (eq. 47): mass, kg.
+pub const PAPER_MASS: f64 = 3.059;
+/// The paper's 10-sample estimate (eq. 47): CoM in frame 7, m.
+pub const PAPER_COM: [f64; 3] = [-2.8e-3, 1.1e-2, 0.1283];
+/// Contact onsets of the free-motion segment, s (as in Fig. 6).
+pub const CONTACTS_S: [f64; 3] = [1.0, 8.0, 17.0];
+/// Length of the free-motion segment, s.
+pub const FREE_MOTION_S: f64 = 20.0;
+/// Detection threshold, Nm (Fig. 6).
+pub const THRESHOLD_NM: f64 = 6.0;
+/// An onset within this time after a contact onset detects it, s.
+const MATCH_WINDOW_S: f64 = 0.5;
+
+/// Demo options.
+#[derive(Debug, Clone)]
+pub struct DemoOptions {
+    /// Where plots and the free-motion log are written.
+    pub out_dir: PathBuf,
+    /// Seed of the simulated robot (noise, model error).
+    pub seed: u64,
+    /// Real time (the demo) or lockstep (tests).
+    pub pacing: TimingMode,
+    /// Print progress lines.
+    pub verbose: bool,
+}
+
+/// A payload with optional uncertainties (frame 7).
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct PayloadReport {
+    /// Mass, kg.
+    pub mass: f64,
+    /// CoM in frame 7, m.
+    pub com: [f64; 3],
+    /// 1σ of the mass, kg.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mass_std: Option<f64>,
+    /// 1σ of the CoM, m.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub com_std: Option<[f64; 3]>,
+}
+
+/// The final report (`--json` prints it).
+#[derive(Debug, Clone, Serialize)]
+pub struct DemoReport {
+    /// True payload of the simulation.
+    pub payload_truth: PayloadReport,
+    /// The service's estimate.
+    pub payload_estimate: PayloadReport,
+    /// The paper's 10-sample estimate (eq. 47), for comparison.
+    pub payload_paper: PayloadReport,
+    /// Onset times of detected contacts with the compensated residual, s.
+    pub detections_compensated: Vec<f64>,
+    /// Onset times of detected contacts with the uncompensated residual, s.
+    pub detections_uncompensated: Vec<f64>,
+    /// Onsets with the compensated residual not explained by a contact.
+    pub false_alarms_compensated: usize,
+    /// Onsets with the uncompensated residual not explained by a contact.
+    pub false_alarms_uncompensated: usize,
+    /// Onset times of detected contacts with the controller's estExtJntTrq, s.
+    pub detections_fri: Vec<f64>,
+    /// Onsets with the controller's estExtJntTrq not explained by a contact.
+    pub false_alarms_fri: usize,
+    /// Peak |signal| during free motion away from contacts, Nm: compensated, uncompensated, FRI.
+    pub free_motion_peak_nm: [f64; 3],
+    /// Contact onsets, s.
+    pub contacts: Vec<f64>,
+    /// Collision events the service reported online (watch), s since the segment start.
+    pub service_detections: Vec<f64>,
+    /// Plot files.
+    pub plots: Vec<PathBuf>,
+    /// The free-motion log (CSV) recorded by the service.
+    pub log: PathBuf,
+}
+
+fn say(opts: &DemoOptions, msg: impl AsRef<str>) {
+    if opts.verbose {
+        eprintln!("{}", msg.as_ref());
+    }
+}
+
+fn sim(seed: u64, payload: bool) -> SimulationConfig {
+    let mut c = SimulationConfig {
+        name: "demo".into(),
+        seed,
+        ..SimulationConfig::default()
+    };
+    c.payload.mass_kg = PAYLOAD_MASS;
+    c.payload.com_m = PAYLOAD_COM;
+    c.payload.attached_at_start = payload;
+    c
+}
+
+fn free_motion(seed: u64) -> SimulationConfig {
+    let mut c = sim(seed, true);
+    let p0 = mock_robot::config::DEFAULT_INITIAL_Q_DEG;
+    let ptp = |q: [f64; 7], d: f64| MotionSegment::Ptp {
+        q_deg: q,
+        duration_s: Some(d),
+        speed_fraction: None,
+    };
+    c.motion = vec![
+        ptp([30.0, 45.0, 15.0, -45.0, 20.0, 70.0, 15.0], 3.0),
+        ptp([-30.0, 20.0, -15.0, -80.0, -20.0, 45.0, -15.0], 3.5),
+        ptp([20.0, 55.0, 25.0, -35.0, 30.0, 80.0, 25.0], 3.5),
+        ptp([-25.0, 30.0, -20.0, -70.0, -25.0, 50.0, -20.0], 3.5),
+        ptp([25.0, 40.0, 10.0, -50.0, 15.0, 65.0, 10.0], 3.0),
+        ptp(p0, 3.0),
+        MotionSegment::Dwell { duration_s: 1.0 },
+    ];
+    let contact = |link: usize, onset_s: f64, force: [f64; 3]| ContactSpec {
+        link,
+        point_m: [0.0, 0.0, 0.0],
+        onset_s,
+        profile: ContactProfile::HalfSine {
+            peak_force_n: force,
+            duration_s: 0.3,
+        },
+    };
+    c.contacts = vec![
+        contact(4, CONTACTS_S[0], [0.0, 60.0, 0.0]),
+        contact(6, CONTACTS_S[1], [60.0, 0.0, 0.0]),
+        contact(7, CONTACTS_S[2], [0.0, -50.0, 30.0]),
+    ];
+    c.duration_s = Some(FREE_MOTION_S + 0.5);
+    c
+}
+
+fn demo_config(dir: &Path) -> Config {
+    let mut c = Config::default();
+    c.fri.bind = "127.0.0.1:0".parse().unwrap_or(c.fri.bind);
+    c.operator.socket = dir.join("operator.sock");
+    c.state.dir = dir.join("state");
+    c.iceoryx2.enabled = false;
+    // Faster than the conservative defaults (still far below the LWR's limits) so the demo
+    // finishes in about a minute.
+    c.fri.max_joint_step = 1.0e-3;
+    c.motion.max_velocity = [0.9; 7];
+    c.motion.max_acceleration = [5.0; 7];
+    c.motion.max_jerk = [100.0; 7];
+    c.estimation.settle_window_s = 0.1;
+    c.estimation.average_s = 0.3;
+    // Each phase brings its simulated controller up on a new socket, at least 0.2 s after the
+    // previous one stopped: a 0.1 s resync binds the new one at its first datagram (with the
+    // default 1 s its first 0.8 s would go unanswered and the log would start late).
+    c.fri.resync_after_s = 0.1;
+    // The payload is unknown until estimated: report only, arm after the estimate.
+    c.observer.armed = false;
+    c.observer.thresholds = [THRESHOLD_NM; 7];
+    c.reaction.policy = ReactionPolicy::Report;
+    c
+}
+
+async fn wait_fresh_state(client: &mut Client, after_cycle: Option<u64>) -> anyhow::Result<()> {
+    for _ in 0..1000 {
+        let s = client.call(Command::Status, |_, _| {}).await?;
+        if let Ok(s) = s
+            && let Some(c) = s["cycle"].as_u64()
+            && after_cycle.is_none_or(|a| c > a + 50)
+        {
+            return Ok(());
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    bail!("the service did not see the simulated controller")
+}
+
+async fn current_cycle(client: &mut Client) -> anyhow::Result<Option<u64>> {
+    let s = client.call(Command::Status, |_, _| {}).await?;
+    Ok(s.ok().and_then(|s| s["cycle"].as_u64()))
+}
+
+/// Runs the demo.
+pub async fn run(opts: &DemoOptions) -> anyhow::Result<DemoReport> {
+    std::fs::create_dir_all(&opts.out_dir)
+        .with_context(|| format!("creating {}", opts.out_dir.display()))?;
+    let work = std::env::temp_dir().join(format!("fri-service-demo-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&work);
+    std::fs::create_dir_all(&work)?;
+    let result = run_in(opts, &work).await;
+    let _ = std::fs::remove_dir_all(&work);
+    result
+}
+
+async fn run_in(opts: &DemoOptions, work: &Path) -> anyhow::Result<DemoReport> {
+    let config = demo_config(work);
+    let cycle_s = config.fri.cycle_s;
+    let service = Arc::new(RunningService::start(config.clone())?);
+    let fri = service
+        .fri_addr()
+        .context("the FRI endpoint has no address")?;
+    let (shutdown, rx) = watch::channel(false);
+    let server = {
+        let s = service.clone();
+        tokio::spawn(async move { s.serve_operator(rx).await })
+    };
+    for _ in 0..500 {
+        if config.operator.socket.exists() {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+    let outcome = phases(opts, &config, fri, cycle_s).await;
+    let _ = shutdown.send(true);
+    let _ = server.await;
+    if let Ok(s) = Arc::try_unwrap(service) {
+        s.shutdown();
+    }
+    outcome
+}
+
+async fn phases(
+    opts: &DemoOptions,
+    config: &Config,
+    fri: std::net::SocketAddr,
+    cycle_s: f64,
+) -> anyhow::Result<DemoReport> {
+    let socket = &config.operator.socket;
+    let mut client = Client::connect(socket).await?;
+
+    // 1. Tare.
+    say(opts, "[1/4] tare: 10 poses, ±7°, no payload ...");
+    let driver = mock_robot::spawn_new(
+        sim(opts.seed, false),
+        ServerConfig::loopback(fri, opts.pacing),
+    )?;
+    wait_fresh_state(&mut client, None).await?;
+    let tare = client
+        .call(
+            Command::Tare {
+                around: None,
+                poses: Some(10),
+                step_deg: Some(7.0),
+                pattern: None,
+            },
+            |_, d| {
+                if d["phase"] == "sampled" {
+                    say(
+                        opts,
+                        format!("      pose {}/{} sampled", d["step"], d["of"]),
+                    );
+                }
+            },
+        )
+        .await?
+        .map_err(|e| anyhow::anyhow!("tare failed: {}", e.message))?;
+    say(
+        opts,
+        format!("      tare stored: {} samples", tare["samples"]),
+    );
+
+    // 2. Estimate.
+    say(
+        opts,
+        format!("[2/4] payload attached ({PAYLOAD_MASS} kg at (0, 0, 0.119) m); estimating ..."),
+    );
+    let before = current_cycle(&mut client).await?;
+    // The same robot carries on: the tare's noise, drift and estimate are independent draws.
+    let (mut robot, _) = driver
+        .join()
+        .context("the simulated controller of the tare phase failed")?;
+    robot.set_payload_attached(true);
+    let driver = mock_robot::spawn(robot, ServerConfig::loopback(fri, opts.pacing))?;
+    wait_fresh_state(&mut client, before).await?;
+    let est = client
+        .call(
+            Command::EstimatePayload {
+                around: None,
+                poses: Some(10),
+                step_deg: Some(7.0),
+                pattern: None,
+                use_tare: None,
+                apply: Some(true),
+            },
+            |_, d| {
+                if d["phase"] == "sampled" {
+                    say(
+                        opts,
+                        format!("      pose {}/{} sampled", d["step"], d["of"]),
+                    );
+                }
+            },
+        )
+        .await?
+        .map_err(|e| anyhow::anyhow!("estimation failed: {}", e.message))?;
+    let truth = driver
+        .join()
+        .ok()
+        .and_then(|(s, _)| s.true_payload().copied())
+        .context("the simulation ended without its truth")?;
+    let f = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
+    let v3 = |v: &Value| [f(&v[0]), f(&v[1]), f(&v[2])];
+    let estimate = PayloadReport {
+        mass: f(&est["mass"]),
+        com: v3(&est["com"]),
+        mass_std: Some(f(&est["mass_std"])),
+        com_std: Some(v3(&est["com_std"])),
+    };
+    let truth_com = truth.com().map_or([f64::NAN; 3], |c| [c.x, c.y, c.z]);
+    let payload_truth = PayloadReport {
+        mass: truth.mass,
+        com: truth_com,
+        mass_std: None,
+        com_std: None,
+    };
+    say(
+        opts,
+        "      payload (frame 7)         mass [kg]            com [m]",
+    );
+    say(
+        opts,
+        format!(
+            "      truth                     {:.4}               ({:+.4}, {:+.4}, {:+.4})",
+            truth.mass, truth_com[0], truth_com[1], truth_com[2]
+        ),
+    );
+    let sd = estimate.com_std.unwrap_or([f64::NAN; 3]);
+    say(
+        opts,
+        format!(
+            "      service (tare, 10 poses)  {:.4} ± {:.4}     ({:+.4} ± {:.4}, {:+.4} ± {:.4}, {:+.4} ± {:.4})",
+            estimate.mass,
+            estimate.mass_std.unwrap_or(f64::NAN),
+            estimate.com[0],
+            sd[0],
+            estimate.com[1],
+            sd[1],
+            estimate.com[2],
+            sd[2]
+        ),
+    );
+    say(
+        opts,
+        format!(
+            "      paper eq. 47 (10 poses)   {PAPER_MASS:.4}               ({:+.4}, {:+.4}, {:+.4})",
+            PAPER_COM[0], PAPER_COM[1], PAPER_COM[2]
+        ),
+    );
+
+    // 3. Free motion with contacts.
+    say(
+        opts,
+        "[3/4] free motion, contacts at 1, 8, 17 s; monitor armed with the estimate ...",
+    );
+    client
+        .call(
+            Command::Collision {
+                action: CollisionAction::Arm,
+                thresholds: None,
+                gains: None,
+            },
+            |_, _| {},
+        )
+        .await?
+        .map_err(|e| anyhow::anyhow!("arming failed: {}", e.message))?;
+    let log = opts.out_dir.join("free-motion.csv");
+    let log_abs = if log.is_absolute() {
+        log.clone()
+    } else {
+        std::env::current_dir()?.join(&log)
+    };
+    // Recording and watching start before the controller run so that t = 0 is its first cycle.
+    // The service writes only into its recording directory (in the demo's work directory); the
+    // log is copied to the output directory afterwards.
+    let mut recorder = Client::connect(socket).await?;
+    let record_path = "free-motion.csv".to_owned();
+    let record = tokio::spawn(async move {
+        recorder
+            .call(
+                Command::Record {
+                    path: record_path,
+                    kind: RecordKind::Log,
+                    duration_s: Some(FREE_MOTION_S),
+                    count: None,
+                },
+                |_, _| {},
+            )
+            .await
+    });
+    let mut watcher = Client::connect(socket).await?;
+    let online = Arc::new(std::sync::Mutex::new(Vec::<f64>::new()));
+    let online_w = online.clone();
+    let watch_task = tokio::spawn(async move {
+        let _ = watcher
+            .call(Command::Watch { state_every: None }, |ev, d| {
+                if ev == "collision"
+                    && let (Some(t), Ok(mut v)) = (d["time_s"].as_f64(), online_w.lock())
+                {
+                    v.push(t);
+                }
+            })
+            .await;
+    });
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let driver = mock_robot::spawn_new(
+        free_motion(opts.seed),
+        ServerConfig::loopback(fri, opts.pacing),
+    )?;
+    let recorded = record
+        .await
+        .context("recording task")??
+        .map_err(|e| anyhow::anyhow!("recording failed: {}", e.message))?;
+    drop(driver.join());
+    watch_task.abort();
+    let written = recorded["path"]
+        .as_str()
+        .context("the record reply has no path")?;
+    std::fs::copy(written, &log_abs)
+        .with_context(|| format!("copying {written} to {}", log_abs.display()))?;
+    say(
+        opts,
+        format!(
+            "      recorded {} cycles to {}",
+            recorded["rows"],
+            log.display()
+        ),
+    );
+
+    // 4. Evaluation and plots.
+    say(opts, "[4/4] evaluating residuals and plotting ...");
+    let rows = read_log(&log_abs)?;
+    let t0 = rows.first().map_or(0.0, |r| r.time_s);
+    let online_rel: Vec<f64> = online
+        .lock()
+        .map(|v| v.iter().map(|t| t - t0).collect())
+        .unwrap_or_default();
+    let model = dynamics::lwr4();
+    let compensated = residuals(
+        &model,
+        config,
+        &rows,
+        PayloadCompensation::gravity_from_com(estimate.mass, Vector3::from(estimate.com)),
+        cycle_s,
+    )?;
+    let uncompensated = residuals(&model, config, &rows, PayloadCompensation::None, cycle_s)?;
+    let fri_signal: Vec<V7> = rows.iter().map(|r| V7::from(r.tau_ext)).collect();
+    let times: Vec<f64> = rows.iter().map(|r| r.time_s - t0).collect();
+    let velocities: Vec<V7> = rows.iter().map(|r| V7::from(r.qd)).collect();
+    let on_c = onsets(&compensated, &velocities, &times)?;
+    let on_u = onsets(&uncompensated, &velocities, &times)?;
+    let on_f = onsets(&fri_signal, &velocities, &times)?;
+    let (det_c, fa_c) = classify(&on_c);
+    let (det_u, fa_u) = classify(&on_u);
+    let (det_f, fa_f) = classify(&on_f);
+    let peak = |sig: &[V7]| {
+        sig.iter()
+            .zip(&times)
+            .filter(|(_, t)| CONTACTS_S.iter().all(|c| **t < *c - 0.05 || **t > *c + 1.0))
+            .map(|(r, _)| r.amax())
+            .fold(0.0, f64::max)
+    };
+    let free_motion_peak_nm = [peak(&compensated), peak(&uncompensated), peak(&fri_signal)];
+    for (name, det, fa, pk) in [
+        (
+            "compensated residual (with estimate)",
+            &det_c,
+            fa_c,
+            free_motion_peak_nm[0],
+        ),
+        (
+            "uncompensated residual (no payload)",
+            &det_u,
+            fa_u,
+            free_motion_peak_nm[1],
+        ),
+        (
+            "controller estExtJntTrq (FRI)",
+            &det_f,
+            fa_f,
+            free_motion_peak_nm[2],
+        ),
+    ] {
+        say(
+            opts,
+            format!(
+                "      {name:38} detections at {} s, {fa} false alarm(s), free-motion peak {pk:.1} Nm",
+                fmt_times(det)
+            ),
+        );
+    }
+
+    let fig5 = opts.out_dir.join("fig5-torque-validation.svg");
+    let fig6 = opts.out_dir.join("fig6-residuals.svg");
+    plot_fig5(&fig5, &model, &rows, &times, &estimate, cycle_s)?;
+    plot_fig6(&fig6, &times, &fri_signal, &uncompensated, &compensated)?;
+    say(
+        opts,
+        format!("      plots: {} and {}", fig5.display(), fig6.display()),
+    );
+
+    Ok(DemoReport {
+        payload_truth,
+        payload_estimate: estimate,
+        payload_paper: PayloadReport {
+            mass: PAPER_MASS,
+            com: PAPER_COM,
+            mass_std: None,
+            com_std: None,
+        },
+        detections_compensated: det_c,
+        detections_uncompensated: det_u,
+        false_alarms_compensated: fa_c,
+        false_alarms_uncompensated: fa_u,
+        detections_fri: det_f,
+        false_alarms_fri: fa_f,
+        free_motion_peak_nm,
+        contacts: CONTACTS_S.to_vec(),
+        service_detections: online_rel,
+        plots: vec![fig5, fig6],
+        log,
+    })
+}
+
+fn fmt_times(t: &[f64]) -> String {
+    if t.is_empty() {
+        return "(none)".into();
+    }
+    t.iter()
+        .map(|x| format!("{x:.3}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// One row of the service's per-cycle log.
+#[derive(Debug, Clone)]
+struct LogRow {
+    time_s: f64,
+    q: [f64; 7],
+    qd: [f64; 7],
+    tau: [f64; 7],
+    tau_ext: [f64; 7],
+}
+
+fn read_log(path: &Path) -> anyhow::Result<Vec<LogRow>> {
+    let mut reader =
+        csv::Reader::from_path(path).with_context(|| format!("reading {}", path.display()))?;
+    let headers = reader.headers()?.clone();
+    let col = |name: &str| {
+        headers
+            .iter()
+            .position(|h| h == name)
+            .with_context(|| format!("column {name} missing in the log"))
+    };
+    let time = col("time_s")?;
+    let q1 = col("q1")?;
+    let qd1 = col("qd1")?;
+    let tau1 = col("tau1")?;
+    let ext1 = col("tau_ext1")?;
+    let mut rows = Vec::new();
+    for rec in reader.records() {
+        let rec = rec?;
+        let num = |i: usize| -> anyhow::Result<f64> {
+            Ok(rec.get(i).context("short row")?.parse::<f64>()?)
+        };
+        let arr = |start: usize| -> anyhow::Result<[f64; 7]> {
+            let mut a = [0.0; 7];
+            for (j, v) in a.iter_mut().enumerate() {
+                *v = num(start + j)?;
+            }
+            Ok(a)
+        };
+        rows.push(LogRow {
+            time_s: num(time)?,
+            q: arr(q1)?,
+            qd: arr(qd1)?,
+            tau: arr(tau1)?,
+            tau_ext: arr(ext1)?,
+        });
+    }
+    if rows.len() < 100 {
+        bail!("the free-motion log has only {} rows", rows.len());
+    }
+    Ok(rows)
+}
+
+fn residuals(
+    model: &dynamics::Model<7>,
+    config: &Config,
+    rows: &[LogRow],
+    payload: PayloadCompensation,
+    cycle_s: f64,
+) -> anyhow::Result<Vec<V7>> {
+    let mut monitor: CollisionMonitor<7> =
+        fri_service::service::build_monitor(config, model.clone())
+            .context("observer configuration")?;
+    monitor
+        .set_payload(payload)
+        .map_err(|e| anyhow::anyhow!("payload rejected by the observer: {e}"))?;
+    let mut last_t: Option<f64> = None;
+    Ok(rows
+        .iter()
+        .map(|r| {
+            let dt = last_t.map_or(cycle_s, |t| (r.time_s - t).max(cycle_s));
+            last_t = Some(r.time_s);
+            let out = monitor.step(&ObserverInput::new(V7::from(r.q), V7::from(r.tau), dt));
+            out.observer.residual
+        })
+        .collect())
+}
+
+fn onsets(signal: &[V7], velocities: &[V7], times: &[f64]) -> anyhow::Result<Vec<f64>> {
+    let mut detector = CollisionDetector::<7>::new(safety::DetectorConfig {
+        thresholds_nm: V7::repeat(THRESHOLD_NM),
+        ..Default::default()
+    })
+    .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let mut out = Vec::new();
+    for (k, ((r, v), t)) in signal.iter().zip(velocities).zip(times).enumerate() {
+        if let Detection::Onset(_) = detector.update(r, v, k as u64, *t) {
+            out.push(*t);
+        }
+    }
+    Ok(out)
+}
+
+/// Splits onsets into detections (first onset within the window after each contact) and false
+/// alarms (all other onsets).
+fn classify(onsets: &[f64]) -> (Vec<f64>, usize) {
+    let mut detections = Vec::new();
+    let mut used = vec![false; onsets.len()];
+    for c in CONTACTS_S {
+        if let Some((i, t)) = onsets
+            .iter()
+            .enumerate()
+            .find(|(i, t)| !used[*i] && **t >= c && **t <= c + MATCH_WINDOW_S)
+        {
+            used[i] = true;
+            detections.push(*t);
+        }
+    }
+    let false_alarms = used.iter().filter(|u| !**u).count();
+    (detections, false_alarms)
+}
+
+fn decimate(times: &[f64], values: impl Iterator<Item = f64>) -> Vec<(f64, f64)> {
+    times.iter().copied().zip(values).step_by(5).collect()
+}
+
+fn plot_fig5(
+    path: &Path,
+    model: &dynamics::Model<7>,
+    rows: &[LogRow],
+    times: &[f64],
+    estimate: &PayloadReport,
+    cycle_s: f64,
+) -> anyhow::Result<()> {
+    let loaded = model.with_payload(&InertialParameters::point_mass(
+        estimate.mass,
+        Vector3::from(estimate.com),
+    ));
+    let mut data = Data::new(&loaded);
+    // q̈ from a central difference of the observer's filtered q̇ over ±10 cycles.
+    let h = 10usize;
+    let computed: Vec<V7> = (0..rows.len())
+        .map(|k| {
+            let (a, b) = (k.saturating_sub(h), (k + h).min(rows.len() - 1));
+            let span = (b - a).max(1) as f64 * cycle_s;
+            let qdd = (V7::from(rows[b].qd) - V7::from(rows[a].qd)) / span;
+            dynamics::rnea(
+                &loaded,
+                &mut data,
+                &V7::from(rows[k].q),
+                &V7::from(rows[k].qd),
+                &qdd,
+            )
+        })
+        .collect();
+    // The observer's q̇ restarts with the free-motion run (new controller connection); its first
+    // 50 ms are the velocity filter settling, not a torque prediction, so they are not plotted.
+    let settled = ((0.05 / cycle_s) as usize).min(rows.len()).min(times.len());
+    let (rows, times, computed) = (&rows[settled..], &times[settled..], &computed[settled..]);
+    let panels: Vec<Panel> = [1usize, 3, 5]
+        .iter()
+        .map(|&j| Panel {
+            title: format!(
+                "joint {}: measured τ_J (dashed) vs computed with the estimate (solid); contacts at 1, 8, 17 s",
+                j + 1
+            ),
+            y_label: "Nm".into(),
+            series: vec![
+                Series {
+                    label: "measured".into(),
+                    points: decimate(times, rows.iter().map(|r| r.tau[j])),
+                    color: 2,
+                    dashed: true,
+                },
+                Series {
+                    label: "computed".into(),
+                    points: decimate(times, computed.iter().map(|c| c[j])),
+                    color: 0,
+                    dashed: false,
+                },
+            ],
+            hlines: Vec::new(),
+        })
+        .collect();
+    plots::draw(path, &panels)
+}
+
+fn plot_fig6(
+    path: &Path,
+    times: &[f64],
+    fri: &[V7],
+    uncompensated: &[V7],
+    compensated: &[V7],
+) -> anyhow::Result<()> {
+    let panel = |title: &str, sig: &[V7]| Panel {
+        title: title.to_owned(),
+        y_label: "Nm".into(),
+        series: (0..7)
+            .map(|j| Series {
+                label: format!("joint {}", j + 1),
+                points: decimate(times, sig.iter().map(|r| r[j])),
+                color: j,
+                dashed: false,
+            })
+            .collect(),
+        hlines: vec![THRESHOLD_NM, -THRESHOLD_NM],
+    };
+    plots::draw(
+        path,
+        &[
+            panel("controller estExtJntTrq (FRI), ±6 Nm", fri),
+            panel(
+                "residual without payload (uncompensated), ±6 Nm",
+                uncompensated,
+            ),
+            panel(
+                "residual with the estimated payload (eq. 48), ±6 Nm",
+                compensated,
+            ),
+        ],
+    )
+}
+
+/// Renders the report for people.
+pub fn summary(r: &DemoReport) -> Value {
+    json!(r)
+}

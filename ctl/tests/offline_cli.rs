@@ -481,7 +481,7 @@ fn robot_files_work_like_the_builtin_model() {
         "--json",
     ]);
     for file in ["lwr4.toml", "lwr4.urdf"] {
-        let path = format!("{}/dynamics/robots/{file}", env!("CARGO_MANIFEST_DIR"));
+        let path = format!("{}/../dynamics/robots/{file}", env!("CARGO_MANIFEST_DIR"));
         let v = ok_json(&[
             "estimate",
             "--samples",
@@ -497,7 +497,7 @@ fn robot_files_work_like_the_builtin_model() {
         assert!((a - b).abs() < 1e-9, "{file}: {a} vs {b}");
     }
     let two = format!(
-        "{}/dynamics/robots/planar_2r.toml",
+        "{}/../dynamics/robots/planar_2r.toml",
         env!("CARGO_MANIFEST_DIR")
     );
     let e = err_text(&[

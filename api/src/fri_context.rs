@@ -19,6 +19,11 @@ pub struct FriContext {
 }
 
 impl FriContext {
+    /// The context of an empty measurement: for a state whose measurement was never seen.
+    pub fn unknown() -> Self {
+        Self::of(&Measurement::default())
+    }
+
     /// The context in `msr`.
     pub fn of(msr: &Measurement) -> Self {
         Self {

@@ -28,6 +28,9 @@ pub mod flags {
     /// The collision monitor is warming up after a (re)start or waits for the arm to come to
     /// rest: `residual` is NaN and no collision can be detected.
     pub const RESIDUAL_INVALID: u32 = 1 << 7;
+    /// The service wants command mode (a move is pending or running): with [`COMMAND_MODE`]
+    /// clear, the controller has not entered it yet.
+    pub const COMMAND_REQUESTED: u32 = 1 << 8;
 }
 
 /// Robot state, published once per FRI cycle on `<prefix>/state`.

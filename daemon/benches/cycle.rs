@@ -4,7 +4,7 @@
 use std::time::{Duration, Instant};
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use fri_service::service::cyclekit::CycleKit;
+use fri_service::service::replay::Replay;
 use mock_robot::{Simulation, SimulationConfig};
 
 fn measurement() -> fri::wire::Measurement {
@@ -18,7 +18,7 @@ fn measurement() -> fri::wire::Measurement {
 }
 
 fn bench(c: &mut Criterion) {
-    let mut kit = CycleKit::new(measurement()).unwrap();
+    let mut kit = Replay::new(measurement()).unwrap();
     // Only the service's work is timed; preparing the next datagram is the controller's.
     c.bench_function("service cycle: decode + observer + reply", |b| {
         b.iter_custom(|iters| {

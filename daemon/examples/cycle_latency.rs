@@ -4,7 +4,7 @@
 
 use std::time::Instant;
 
-use fri_service::service::cyclekit::CycleKit;
+use fri_service::service::replay::Replay;
 use mock_robot::{Simulation, SimulationConfig};
 
 fn main() {
@@ -18,7 +18,7 @@ fn main() {
     for _ in 0..20 {
         sim.step_cycle(None);
     }
-    let mut kit = CycleKit::new(*sim.measurement()).unwrap();
+    let mut kit = Replay::new(*sim.measurement()).unwrap();
     for _ in 0..10_000 {
         kit.prepare();
         kit.cycle();

@@ -2,7 +2,7 @@
 //! allocates once warmed up.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
-use fri_service::service::cyclekit::CycleKit;
+use fri_service::service::replay::Replay;
 use mock_robot::{Simulation, SimulationConfig};
 
 #[global_allocator]
@@ -16,7 +16,7 @@ fn service_cycle_is_allocation_free() {
     for _ in 0..20 {
         sim.step_cycle(None);
     }
-    let mut kit = CycleKit::new(*sim.measurement()).unwrap();
+    let mut kit = Replay::new(*sim.measurement()).unwrap();
     for _ in 0..200 {
         kit.prepare();
         assert!(kit.cycle());

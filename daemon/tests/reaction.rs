@@ -16,8 +16,8 @@ use fri::wire::{InterfaceState, Measurement, Quality};
 use fri_service::config::{Config, ReactionPolicy};
 use fri_service::motion::MotionLimits;
 use fri_service::service::build_monitor;
-use fri_service::service::events::{AbortReason, ResyncReason, StopReason};
-use fri_service::service::rt::{CycleProcessor, ProcessorSettings, RtEvent, RtRequest};
+use fri_service::service::cycle::{CycleEvent, CycleProcessor, CycleRequest, ProcessorSettings};
+use fri_service::service::output::{AbortReason, ResyncReason, StopReason};
 use nalgebra::{SVector, Vector3};
 use proptest::prelude::*;
 use safety::PayloadCompensation;
@@ -41,8 +41,8 @@ const PAYLOAD_COM: [f64; 3] = [0.0, 0.0, 0.12];
 
 struct Rig {
     processor: CycleProcessor,
-    requests: SyncSender<RtRequest>,
-    events: Receiver<RtEvent>,
+    requests: SyncSender<CycleRequest>,
+    events: Receiver<CycleEvent>,
     model: Model<7>,
     data: Data<7>,
     q: V7,
@@ -99,7 +99,7 @@ impl Rig {
         }
     }
 
-    fn send(&self, r: RtRequest) {
+    fn send(&self, r: CycleRequest) {
         self.requests.try_send(r).unwrap();
     }
 
@@ -131,7 +131,7 @@ impl Rig {
     }
 
     /// One cycle; the arm follows the set-point exactly. Returns the cycle's events.
-    fn cycle(&mut self) -> Vec<RtEvent> {
+    fn cycle(&mut self) -> Vec<CycleEvent> {
         let m = self.measurement();
         // How a session places it: a jump back or beyond the window is a restart.
         let arrival = match self.previous_seq.replace(self.seq) {
@@ -167,18 +167,18 @@ impl Rig {
         }
         self.events
             .try_iter()
-            .filter(|e| !matches!(e, RtEvent::State(_)))
+            .filter(|e| !matches!(e, CycleEvent::State(_)))
             .collect()
     }
 
     /// Runs `n` cycles and checks the rule on each: an armed onset leaves the arm held.
-    fn run(&mut self, n: usize) -> Vec<RtEvent> {
+    fn run(&mut self, n: usize) -> Vec<CycleEvent> {
         let mut all = Vec::new();
         for _ in 0..n {
             let events = self.cycle();
             // Requests are applied at the start of a cycle, before the monitor steps.
             let armed = self.processor.is_armed();
-            let onset = events.iter().any(|e| matches!(e, RtEvent::Collision(_)));
+            let onset = events.iter().any(|e| matches!(e, CycleEvent::Collision(_)));
             if armed && onset {
                 assert!(
                     self.processor.is_holding(),
@@ -196,11 +196,11 @@ impl Rig {
     }
 }
 
-fn stopped_by_collision(events: &[RtEvent]) -> bool {
+fn stopped_by_collision(events: &[CycleEvent]) -> bool {
     events.iter().any(|e| {
         matches!(
             e,
-            RtEvent::Stopped {
+            CycleEvent::Stopped {
                 reason: StopReason::Collision { .. },
                 ..
             }
@@ -209,7 +209,7 @@ fn stopped_by_collision(events: &[RtEvent]) -> bool {
 }
 
 fn apply_carried_payload(rig: &Rig) {
-    rig.send(RtRequest::SetPayload(Some(
+    rig.send(CycleRequest::SetPayload(Some(
         PayloadCompensation::gravity_from_com(PAYLOAD_KG, Vector3::from(PAYLOAD_COM)),
     )));
 }
@@ -221,20 +221,20 @@ fn disarm_grasp_apply_arm_then_a_contact_stops_the_arm() {
     for policy in [ReactionPolicy::Stop, ReactionPolicy::Pause] {
         let mut rig = Rig::new(policy, true);
         rig.run(200);
-        rig.send(RtRequest::Arm(false));
+        rig.send(CycleRequest::Arm(false));
         rig.carried = true;
         let events = rig.run(300);
         assert!(events.is_empty(), "disarmed: {events:?}");
         assert!(!rig.processor.is_holding());
         // Applied and armed in the same cycle: the residual follows the new model at once.
         apply_carried_payload(&rig);
-        rig.send(RtRequest::Arm(true));
+        rig.send(CycleRequest::Arm(true));
         let events = rig.run(300);
         assert!(events.is_empty(), "compensated payload, armed: {events:?}");
         // A move, then an 80 N-class contact (20 Nm on joint 2) during it.
         let mut target = PICK;
         target[0] += 0.2;
-        rig.send(RtRequest::MoveTo(target));
+        rig.send(CycleRequest::MoveTo(target));
         rig.run(100);
         assert!(rig.processor.is_moving());
         rig.external[1] = 20.0;
@@ -251,7 +251,7 @@ fn arming_into_a_present_contact_reacts() {
     rig.run(100);
     rig.carried = true;
     rig.run(100);
-    rig.send(RtRequest::Arm(true));
+    rig.send(CycleRequest::Arm(true));
     let events = rig.run(50);
     assert!(stopped_by_collision(&events), "{events:?}");
 }
@@ -307,15 +307,15 @@ proptest! {
         rig.run(60);
         for (op, cycles) in ops {
             match op {
-                Op::Arm => rig.send(RtRequest::Arm(true)),
-                Op::Disarm => rig.send(RtRequest::Arm(false)),
+                Op::Arm => rig.send(CycleRequest::Arm(true)),
+                Op::Disarm => rig.send(CycleRequest::Arm(false)),
                 Op::ApplyCarried => apply_carried_payload(&rig),
-                Op::ApplyWrong => rig.send(RtRequest::SetPayload(Some(
+                Op::ApplyWrong => rig.send(CycleRequest::SetPayload(Some(
                     PayloadCompensation::gravity_from_com(1.5, Vector3::new(0.0, 0.05, 0.1)),
                 ))),
-                Op::Clear => rig.send(RtRequest::SetPayload(None)),
-                Op::Stop => rig.send(RtRequest::Stop),
-                Op::Resume => rig.send(RtRequest::Resume),
+                Op::Clear => rig.send(CycleRequest::SetPayload(None)),
+                Op::Stop => rig.send(CycleRequest::Stop),
+                Op::Resume => rig.send(CycleRequest::Resume),
                 Op::Grasp => rig.carried = true,
                 Op::Release => rig.carried = false,
                 Op::Contact(j, t) => rig.external[j] = t,
@@ -324,7 +324,7 @@ proptest! {
                     let mut target = PICK;
                     target[1] += d;
                     target[3] -= d;
-                    rig.send(RtRequest::MoveTo(target));
+                    rig.send(CycleRequest::MoveTo(target));
                 }
                 Op::Idle => {}
             }
@@ -333,10 +333,10 @@ proptest! {
     }
 }
 
-fn any_collision_or_stop(events: &[RtEvent]) -> bool {
+fn any_collision_or_stop(events: &[CycleEvent]) -> bool {
     events
         .iter()
-        .any(|e| matches!(e, RtEvent::Collision(_) | RtEvent::Stopped { .. }))
+        .any(|e| matches!(e, CycleEvent::Collision(_) | CycleEvent::Stopped { .. }))
 }
 
 /// A moving, armed rig with the payload carried and compensated.
@@ -348,7 +348,7 @@ fn armed_and_moving() -> Rig {
     let mut target = PICK;
     target[1] += 0.3;
     target[3] -= 0.3;
-    rig.send(RtRequest::MoveTo(target));
+    rig.send(CycleRequest::MoveTo(target));
     rig.run(300);
     assert!(rig.processor.is_moving());
     rig
@@ -366,7 +366,7 @@ fn gaps_and_restarts_restart_the_monitor_instead_of_reporting_contacts() {
         assert!(
             events.iter().any(|e| matches!(
                 e,
-                RtEvent::Resynchronised { reason: ResyncReason::Gap { cycles }, .. }
+                CycleEvent::Resynchronised { reason: ResyncReason::Gap { cycles }, .. }
                     if *cycles == u32::from(skipped) + 1
             )),
             "gap {skipped}: {events:?}"
@@ -381,7 +381,7 @@ fn gaps_and_restarts_restart_the_monitor_instead_of_reporting_contacts() {
     assert!(!any_collision_or_stop(&events), "{events:?}");
     assert!(events.iter().any(|e| matches!(
         e,
-        RtEvent::Resynchronised {
+        CycleEvent::Resynchronised {
             reason: ResyncReason::ControllerRestarted,
             ..
         }
@@ -398,7 +398,7 @@ fn a_loss_of_command_mode_is_no_contact() {
     assert!(!any_collision_or_stop(&events), "{events:?}");
     assert!(events.iter().any(|e| matches!(
         e,
-        RtEvent::MoveAborted {
+        CycleEvent::MoveAborted {
             reason: AbortReason::CommandModeLost,
             ..
         }
@@ -407,7 +407,7 @@ fn a_loss_of_command_mode_is_no_contact() {
     rig.external[1] = 20.0;
     let events = rig.run(100);
     assert!(
-        events.iter().any(|e| matches!(e, RtEvent::Collision(_))),
+        events.iter().any(|e| matches!(e, CycleEvent::Collision(_))),
         "{events:?}"
     );
 }

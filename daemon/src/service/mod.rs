@@ -4,17 +4,19 @@
 //! Data path per cycle (architecture.md): `fri::endpoint` thread receives and validates the
 //! measurement → [`rt::CycleProcessor`] (observer step, reaction, motion, handshake) → reply;
 //! the cycle's state goes through a bounded queue to the [`fanout`] thread, which feeds the
-//! tokio side ([`fanout::Shared`]) and iceoryx2. Operator requests go back through a bounded
+//! tokio side ([`stream::Shared`]) and iceoryx2. Operator requests go back through a bounded
 //! queue read with `try_recv` by the processor.
 
 pub mod core;
-pub mod cyclekit;
-pub mod events;
-pub mod fanout;
-pub mod handler;
+pub mod cycle;
+pub mod dispatch;
+pub mod output;
 pub mod pattern;
-pub mod rt;
+pub mod replay;
 pub mod settle;
+pub mod state;
+pub mod stream;
+pub mod workflow;
 
 use std::net::SocketAddr;
 use std::sync::Arc;
@@ -34,8 +36,8 @@ use crate::motion::MotionLimits;
 use crate::operator::server::{self, AccessPolicy, ServerLimits};
 use crate::persistence::StateStore;
 use core::{ServiceCore, compensation};
-use handler::ServiceHandler;
-use rt::{CycleProcessor, ProcessorSettings, RtRequest};
+use cycle::{CycleProcessor, CycleRequest, ProcessorSettings};
+use dispatch::Dispatcher;
 
 /// Capacity of the loop → fan-out queue, messages (≈ 4 s at 1 kHz).
 const EVENT_QUEUE: usize = 4096;
@@ -67,7 +69,7 @@ pub struct RunningService {
     pub core: Arc<ServiceCore>,
     endpoint: Option<Arc<Endpoint>>,
     ipc: Option<IpcThread>,
-    fanout: Option<std::thread::JoinHandle<()>>,
+    stream: Option<std::thread::JoinHandle<()>>,
 }
 
 impl std::fmt::Debug for RunningService {
@@ -101,11 +103,11 @@ impl RunningService {
             (None, None)
         };
 
-        let shared = fanout::Shared::new();
+        let shared = stream::Shared::new();
         let (event_tx, event_rx) = sync_channel(EVENT_QUEUE);
         let (request_tx, request_rx) = sync_channel(REQUEST_QUEUE);
-        let fanout = fanout::spawn(event_rx, shared.clone(), ipc.clone())
-            .context("starting the fan-out thread")?;
+        let stream = stream::spawn(event_rx, shared.clone(), ipc.clone())
+            .context("starting the stream thread")?;
 
         let monitor = build_monitor(&config, model.clone()).context("observer configuration")?;
         let m = &config.motion;
@@ -122,7 +124,7 @@ impl RunningService {
         let processor = CycleProcessor::new(settings, monitor, request_rx, event_tx);
         if let Some(p) = &payload {
             request_tx
-                .try_send(RtRequest::SetPayload(Some(compensation(p))))
+                .try_send(CycleRequest::SetPayload(Some(compensation(p))))
                 .ok();
             tracing::info!(mass = p.mass, com = ?p.com, "reloaded applied payload");
         }
@@ -154,7 +156,7 @@ impl RunningService {
             core,
             endpoint: Some(endpoint),
             ipc: ipc_thread,
-            fanout: Some(fanout),
+            stream: Some(stream),
         })
     }
 
@@ -180,7 +182,7 @@ impl RunningService {
         };
         server::serve(
             listener,
-            Arc::new(ServiceHandler(self.core.clone())),
+            Arc::new(Dispatcher(self.core.clone())),
             policy,
             limits,
             shutdown,
@@ -205,7 +207,7 @@ impl RunningService {
                 Err(e) => drop(e),
             }
         }
-        if let Some(f) = self.fanout.take() {
+        if let Some(f) = self.stream.take() {
             // Ends once the processor (on the endpoint thread) is gone.
             if f.is_finished() {
                 let _ = f.join();

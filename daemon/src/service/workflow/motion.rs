@@ -7,29 +7,30 @@ use std::time::Duration;
 use tokio::sync::broadcast::error::RecvError;
 use tokio::time::Instant;
 
-use super::{
+use crate::service::core::{
     ARRIVAL_TIMEOUT_S, ARRIVAL_TOLERANCE, MOVE_RETRIES, MOVE_START_TIMEOUT_S, MOVE_TIMEOUT_S,
     ServiceCore, WORKFLOW_THRESHOLD_FACTOR, err,
 };
-use crate::service::events::{AbortReason, RtEvent};
-use crate::service::rt::RtRequest;
+use crate::service::cycle::CycleRequest;
+use crate::service::output::{AbortReason, CycleEvent};
+use crate::service::state::{LoopState, Snapshot};
+use crate::service::stream::Update;
 use fri_api::cause::Cause;
-use fri_api::ipc::flags;
 use fri_api::protocol::{ErrorCode, OperatorError};
 
 /// What one published state means for a residual check against `baseline`: the joint whose
 /// residual changed by more than `factor` × its threshold, with the change. States whose
 /// residual is invalid (monitor warming up) say nothing.
 pub(super) fn residual_change(
-    state: &crate::ipc::RobotState,
+    snapshot: &Snapshot,
     baseline: &[f64; 7],
     thresholds: &[f64; 7],
 ) -> Option<Cause> {
-    if state.flags & flags::RESIDUAL_INVALID != 0 {
+    if !snapshot.residual_valid() {
         return None;
     }
     (0..7).find_map(|j| {
-        let change = state.residual[j] - baseline[j];
+        let change = snapshot.robot.residual[j] - baseline[j];
         let limit = WORKFLOW_THRESHOLD_FACTOR * thresholds[j];
         (change.abs() > limit).then_some(Cause::ResidualChange {
             joint: j + 1,
@@ -70,15 +71,15 @@ impl ServiceCore {
     /// residual changed beyond the workflow threshold; `context` says where ("while sampling").
     pub(super) fn state_abort(
         &self,
-        state: &crate::ipc::RobotState,
+        snapshot: &Snapshot,
         baseline: Option<&[f64; 7]>,
         thresholds: &[f64; 7],
         context: &str,
     ) -> Option<OperatorError> {
-        if state.flags & flags::STOPPED != 0 {
-            return Some(self.stopped_error());
+        if let Some(e) = Self::held_error(&snapshot.state) {
+            return Some(e);
         }
-        let cause = residual_change(state, baseline?, thresholds)?;
+        let cause = residual_change(snapshot, baseline?, thresholds)?;
         let message = format!("{} {context}", describe_change(&cause));
         Some(err(ErrorCode::Aborted, message).with_cause(cause))
     }
@@ -93,7 +94,7 @@ impl ServiceCore {
     ) -> Result<(), OperatorError> {
         let thresholds = self.persistent(|s| s.thresholds);
         let latest = self.latest()?;
-        if latest.flags & flags::STOPPED != 0 {
+        if latest.state.is_held() {
             return Err(err(
                 ErrorCode::NotReady,
                 "the arm is stopped (operator stop or collision reaction); `resume` first",
@@ -110,9 +111,8 @@ impl ServiceCore {
                 ));
             }
         }
-        let mut states = self.shared.subscribe_states();
-        let mut events = self.shared.subscribe_events();
-        self.send(RtRequest::MoveTo(target))?;
+        let mut updates = self.shared.subscribe();
+        self.send(CycleRequest::MoveTo(target))?;
         let silence = SilenceTimer::new(self.connection_timeout());
         let mut start = Instant::now();
         let mut seen_moving = false;
@@ -126,43 +126,40 @@ impl ServiceCore {
             };
             let deadline = start + Duration::from_secs_f64(timeout);
             tokio::select! {
-                s = states.recv() => match s {
-                    Ok(s) => {
+                u = updates.recv() => match u {
+                    Ok(Update::Snapshot(s)) => {
                         if let Some(e) = self.state_abort(&s, baseline.as_ref(), &thresholds, "during the move: contact? (arm stopped; `resume` to continue)") {
                             // A residual change: hold the arm, as a reaction would.
-                            if s.flags & flags::STOPPED == 0 {
-                                let _ = self.send(RtRequest::Stop);
+                            if !s.state.is_held() {
+                                let _ = self.send(CycleRequest::Stop);
                             }
                             return Err(e);
                         }
-                        if s.flags & flags::MOVING != 0 {
-                            seen_moving = true;
+                        if s.state == LoopState::Moving || s.state == LoopState::EnteringCommand {
+                            seen_moving |= s.state == LoopState::Moving;
                         } else if seen_moving {
                             // The set-point is at the target; wait for the arm to follow.
-                            let off = (0..7).map(|j| (s.q[j] - target[j]).abs()).fold(0.0, f64::max);
-                            let ended = *ended_at.get_or_insert(s.time_s);
+                            let off = (0..7).map(|j| (s.robot.q[j] - target[j]).abs()).fold(0.0, f64::max);
+                            let ended = *ended_at.get_or_insert(s.robot.time_s);
                             if off <= ARRIVAL_TOLERANCE {
                                 return Ok(());
                             }
-                            if s.time_s - ended > ARRIVAL_TIMEOUT_S {
+                            if s.robot.time_s - ended > ARRIVAL_TIMEOUT_S {
                                 return Err(err(ErrorCode::Failed, format!("the arm stayed {off:.4} rad from the target")));
                             }
                         }
                     }
-                    Err(RecvError::Lagged(_)) => {}
-                    Err(RecvError::Closed) => return Err(err(ErrorCode::NotReady, "the FRI loop has stopped")),
-                },
-                e = events.recv() => match e {
-                    Ok(RtEvent::Collision(c)) => {
-                        super::await_stopped_state(&mut states).await;
+                    Ok(Update::Event(CycleEvent::Collision(c))) => {
                         return Err(err(ErrorCode::Aborted, format!("collision detected (link {}) at {:.3} s", c.link, c.time_s)).with_cause(Cause::Collision { link: c.link, time_s: c.time_s, residual: c.residual }));
                     }
-                    Ok(RtEvent::Stopped { reason, fri, .. }) => {
-                        super::await_stopped_state(&mut states).await;
+                    Ok(Update::Event(CycleEvent::Stopped { reason, fri, .. })) => {
                         return Err(Self::stop_error(reason, fri));
                     }
-                    Ok(RtEvent::MoveAborted { reason, fri, .. }) => match reason {
-                        AbortReason::Held | AbortReason::Braked => return Err(self.stopped_error()),
+                    Ok(Update::Event(CycleEvent::MoveAborted { reason, fri, .. })) => match reason {
+                        AbortReason::Held | AbortReason::Braked => {
+                            let held = self.shared.latest().and_then(|s| Self::held_error(&s.state));
+                            return Err(held.unwrap_or_else(|| err(ErrorCode::Aborted, "the move was braked").with_cause(Cause::Held)));
+                        }
                         AbortReason::Unplannable => return Err(err(ErrorCode::Failed, "the move could not be planned from the current set-point")),
                         AbortReason::CommandModeLost | AbortReason::ControllerRestarted => {
                             if retries >= MOVE_RETRIES {
@@ -177,13 +174,15 @@ impl ServiceCore {
                             // the arm is.
                             retries += 1;
                             tracing::warn!(retries, reason = reason.describe(), fri = %fri.describe(), "move interrupted; retrying");
-                            self.send(RtRequest::MoveTo(target))?;
+                            self.send(CycleRequest::MoveTo(target))?;
                             seen_moving = false;
                             ended_at = None;
                             start = Instant::now();
                         }
                     },
-                    _ => {}
+                    // A reader that fell behind lost updates: the next snapshot carries the state.
+                    Ok(Update::Event(_)) | Err(RecvError::Lagged(_)) => {}
+                    Err(RecvError::Closed) => return Err(err(ErrorCode::NotReady, "the FRI loop has stopped")),
                 },
                 silent = silence.silence() => {
                     return Err(self.silent_error(silent.as_secs_f64()));

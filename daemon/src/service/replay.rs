@@ -10,13 +10,13 @@ use fri::session::{Arrival, Session, SessionConfig};
 use fri::wire::{CMD_LEN, MSR_LEN, Measurement};
 
 use super::build_monitor;
-use super::rt::{CycleProcessor, ProcessorSettings, RtEvent, RtRequest};
+use super::cycle::{CycleEvent, CycleProcessor, CycleRequest, ProcessorSettings};
 use crate::config::Config;
 use crate::motion::MotionLimits;
 
 /// A session plus processor fed with a recorded measurement whose sequence counter and torques
 /// change every cycle (so nothing is rejected as a duplicate or flagged as stale).
-pub struct CycleKit {
+pub struct Replay {
     session: Session,
     processor: CycleProcessor,
     template: Measurement,
@@ -25,19 +25,19 @@ pub struct CycleKit {
     datagram: [u8; MSR_LEN],
     reply: [u8; CMD_LEN],
     /// Keeps the request queue open.
-    _requests: SyncSender<RtRequest>,
-    events: Receiver<RtEvent>,
+    _requests: SyncSender<CycleRequest>,
+    events: Receiver<CycleEvent>,
 }
 
-impl std::fmt::Debug for CycleKit {
+impl std::fmt::Debug for Replay {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("CycleKit")
+        f.debug_struct("Replay")
             .field("seq", &self.seq)
             .finish_non_exhaustive()
     }
 }
 
-impl CycleKit {
+impl Replay {
     /// A kit around `measurement` (e.g. one produced by the mock robot) with the default config.
     pub fn new(measurement: Measurement) -> anyhow::Result<Self> {
         let config = Config::default();

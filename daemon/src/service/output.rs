@@ -109,7 +109,7 @@ impl ResyncReason {
 /// What the loop reports to the non-real-time side, in cycle order.
 #[allow(clippy::large_enum_variant)] // by value on purpose: no allocation per cycle
 #[derive(Debug, Clone, Copy)]
-pub enum RtEvent {
+pub enum CycleEvent {
     /// The state of one cycle.
     State(RobotState),
     /// A collision onset while armed.

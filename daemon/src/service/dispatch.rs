@@ -11,9 +11,9 @@ use fri_api::protocol::{Command, OperatorError};
 
 /// Adapts [`ServiceCore`] to the socket server's [`Handler`].
 #[derive(Debug, Clone)]
-pub struct ServiceHandler(pub Arc<ServiceCore>);
+pub struct Dispatcher(pub Arc<ServiceCore>);
 
-impl Handler for ServiceHandler {
+impl Handler for Dispatcher {
     async fn handle(&self, command: Command, events: EventSink) -> Result<Value, OperatorError> {
         let s = &self.0;
         match command {

@@ -28,8 +28,8 @@ use fri::wire::{InterfaceState, Measurement, Quality};
 use nalgebra::SVector;
 use safety::{CollisionMonitor, ObserverInput, PayloadCompensation, ReactionRequest, StopCause};
 
-pub use super::events::RtEvent;
-use super::events::{AbortReason, FriContext, ResyncReason, StopReason};
+pub use super::output::CycleEvent;
+use super::output::{AbortReason, FriContext, ResyncReason, StopReason};
 use crate::ipc::{CollisionEvent, RobotState};
 use crate::motion::{JointMove, MotionLimits};
 use fri_api::ipc::flags;
@@ -57,12 +57,12 @@ struct RestWait {
 
 /// Requests from the operator side to the loop.
 #[derive(Debug)]
-pub enum RtRequest {
+pub enum CycleRequest {
     /// Enter command mode if needed and move to this joint position (rad), jerk-limited.
     MoveTo([f64; 7]),
     /// Leave command mode once no move is pending.
     ReleaseCommandMode,
-    /// Operator stop: brake any move and hold; refuse moves until [`RtRequest::Resume`].
+    /// Operator stop: brake any move and hold; refuse moves until [`CycleRequest::Resume`].
     Stop,
     /// Clear an operator stop and acknowledge a collision reaction.
     Resume,
@@ -93,8 +93,8 @@ pub struct CycleProcessor {
     monitor: Box<CollisionMonitor<7>>,
     payload: Option<PayloadCompensation>,
     armed: bool,
-    requests: Receiver<RtRequest>,
-    events: SyncSender<RtEvent>,
+    requests: Receiver<CycleRequest>,
+    events: SyncSender<CycleEvent>,
     dropped_events: u64,
     cycle: u64,
     time_s: f64,
@@ -130,8 +130,8 @@ impl CycleProcessor {
     pub fn new(
         settings: ProcessorSettings,
         mut monitor: CollisionMonitor<7>,
-        requests: Receiver<RtRequest>,
-        events: SyncSender<RtEvent>,
+        requests: Receiver<CycleRequest>,
+        events: SyncSender<CycleEvent>,
     ) -> Self {
         monitor.set_armed(settings.armed);
         Self {
@@ -191,7 +191,7 @@ impl CycleProcessor {
             || self.pending_target.is_some()
     }
 
-    fn emit(&mut self, e: RtEvent) {
+    fn emit(&mut self, e: CycleEvent) {
         if let Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) = self.events.try_send(e)
         {
             self.dropped_events += 1;
@@ -205,7 +205,7 @@ impl CycleProcessor {
                 return;
             };
             match request {
-                RtRequest::MoveTo(target) => {
+                CycleRequest::MoveTo(target) => {
                     let target = V7::from(target);
                     if !self.is_holding() {
                         self.pending_target = Some(target);
@@ -214,20 +214,20 @@ impl CycleProcessor {
                         self.abort_move(AbortReason::Held, fri);
                     }
                 }
-                RtRequest::ReleaseCommandMode => {
+                CycleRequest::ReleaseCommandMode => {
                     self.command_wanted = false;
                 }
-                RtRequest::Stop => {
+                CycleRequest::Stop => {
                     self.operator_stop = true;
                     self.resume_when_clear = false;
                     self.brake();
-                    self.emit(RtEvent::Stopped {
+                    self.emit(CycleEvent::Stopped {
                         cycle: self.cycle,
                         reason: StopReason::Operator,
                         fri,
                     });
                 }
-                RtRequest::Resume => {
+                CycleRequest::Resume => {
                     // Into a contact that is still present, the resume waits for its release
                     // (the old reaction would otherwise be replaced by a new one at once).
                     if self.armed && self.monitor.detector().in_contact() {
@@ -236,7 +236,7 @@ impl CycleProcessor {
                         self.resume(fri);
                     }
                 }
-                RtRequest::SetPayload(p) => {
+                CycleRequest::SetPayload(p) => {
                     let compensation = p.clone().unwrap_or(PayloadCompensation::None);
                     // A rejected estimate leaves the previous payload in use (the safety crate
                     // reports it as a fault); the operator side validated it already.
@@ -244,12 +244,12 @@ impl CycleProcessor {
                         self.payload = p;
                     }
                 }
-                RtRequest::Arm(on) => {
+                CycleRequest::Arm(on) => {
                     // Arming starts from a live reaction whatever happened while disarmed.
                     self.monitor.set_armed(on);
                     self.armed = on;
                 }
-                RtRequest::ReplaceMonitor(mut m) => {
+                CycleRequest::ReplaceMonitor(mut m) => {
                     let _ =
                         m.set_payload(self.payload.clone().unwrap_or(PayloadCompensation::None));
                     m.set_armed(self.armed);
@@ -269,12 +269,12 @@ impl CycleProcessor {
         // The hold ended here: the supervisor must be ready for the next onset.
         self.monitor.release_reaction();
         if was {
-            self.emit(RtEvent::Resumed { cycle: self.cycle });
+            self.emit(CycleEvent::Resumed { cycle: self.cycle });
         }
     }
 
     fn abort_move(&mut self, reason: AbortReason, fri: FriContext) {
-        self.emit(RtEvent::MoveAborted {
+        self.emit(CycleEvent::MoveAborted {
             cycle: self.cycle,
             reason,
             fri,
@@ -316,7 +316,7 @@ impl CycleProcessor {
                 }
                 self.reaction_hold = true;
                 self.brake();
-                self.emit(RtEvent::Stopped {
+                self.emit(CycleEvent::Stopped {
                     cycle: self.cycle,
                     reason,
                     fri,
@@ -331,7 +331,7 @@ impl CycleProcessor {
                     {
                         self.pending_target = Some(t);
                     }
-                    self.emit(RtEvent::Resumed { cycle: self.cycle });
+                    self.emit(CycleEvent::Resumed { cycle: self.cycle });
                 }
             }
         }
@@ -382,7 +382,7 @@ impl CycleProcessor {
         {
             let mut residual = [0.0; 7];
             residual.copy_from_slice(e.residual.as_slice());
-            self.emit(RtEvent::Collision(CollisionEvent {
+            self.emit(CycleEvent::Collision(CollisionEvent {
                 cycle: self.cycle,
                 time_s: self.time_s,
                 residual,
@@ -405,7 +405,7 @@ impl CycleProcessor {
     /// Restarts the collision monitor and says why.
     fn resynchronise(&mut self, reason: ResyncReason, fri: FriContext) {
         self.monitor.restart();
-        self.emit(RtEvent::Resynchronised {
+        self.emit(CycleEvent::Resynchronised {
             cycle: self.cycle,
             reason,
             fri,
@@ -455,7 +455,7 @@ impl CycleProcessor {
                     quiet: 0,
                     waited: 0,
                 });
-                self.emit(RtEvent::Resynchronised {
+                self.emit(CycleEvent::Resynchronised {
                     cycle: self.cycle,
                     reason: ResyncReason::CommandModeLost,
                     fri,
@@ -564,6 +564,9 @@ impl CycleProcessor {
         if self.motion.is_some() || self.pending_target.is_some() {
             f |= flags::MOVING;
         }
+        if self.command_wanted {
+            f |= flags::COMMAND_REQUESTED;
+        }
         let mut qd = [0.0; 7];
         qd.copy_from_slice(velocity.as_slice());
         // An unsynchronised observer's value is not published: NaN, flagged.
@@ -594,7 +597,7 @@ impl CycleProcessor {
             },
             reserved: 0,
         };
-        self.emit(RtEvent::State(state));
+        self.emit(CycleEvent::State(state));
     }
 }
 

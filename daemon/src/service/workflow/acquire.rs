@@ -6,10 +6,11 @@ use std::time::Duration;
 use tokio::sync::broadcast::error::RecvError;
 use tokio::time::Instant;
 
-use super::move_to::SilenceTimer;
-use super::{ServiceCore, err};
-use crate::service::events::RtEvent;
+use super::motion::SilenceTimer;
+use crate::service::core::{ServiceCore, err};
+use crate::service::output::CycleEvent;
 use crate::service::settle::{AveragedSample, Averager, SettleDetector};
+use crate::service::stream::Update;
 use fri_api::protocol::{ErrorCode, OperatorError};
 
 impl ServiceCore {
@@ -30,8 +31,7 @@ impl ServiceCore {
         let window = (e.settle_window_s / cycle_s).round() as usize;
         let average_cycles = ((duration_s / cycle_s).round() as usize).max(1);
         let mut detector = SettleDetector::new(window, e.settle_velocity, e.settle_torque_std);
-        let mut states = self.shared.subscribe_states();
-        let mut events = self.shared.subscribe_events();
+        let mut updates = self.shared.subscribe();
         let thresholds = self.persistent(|s| s.thresholds);
         let silence = SilenceTimer::new(self.connection_timeout());
         let started = Instant::now();
@@ -42,42 +42,39 @@ impl ServiceCore {
         let wall_limit = Duration::from_secs_f64(e.settle_timeout_s + duration_s + 10.0);
         loop {
             tokio::select! {
-                s = states.recv() => match s {
-                    Ok(s) => {
+                u = updates.recv() => match u {
+                    Ok(Update::Snapshot(s)) => {
                         if let Some(e) = self.state_abort(&s, baseline.as_ref(), &thresholds, "while sampling: contact?") {
                             return Err(e);
                         }
                         if settling {
-                            let t0 = *settle_start_t.get_or_insert(s.time_s);
-                            settle_time = s.time_s - t0;
-                            if detector.push(&s) || settle_time >= e.settle_timeout_s {
+                            let t0 = *settle_start_t.get_or_insert(s.robot.time_s);
+                            settle_time = s.robot.time_s - t0;
+                            if detector.push(&s.robot) || settle_time >= e.settle_timeout_s {
                                 settling = false;
                             }
                             continue;
                         }
-                        avg.push(&s);
+                        avg.push(&s.robot);
                         if avg.len() >= average_cycles {
                             let Some(sample) = avg.finish() else { continue };
                             return Ok((sample, settle_time));
                         }
                     }
+                    Ok(Update::Event(CycleEvent::Stopped { reason, fri, .. })) => {
+                        return Err(Self::stop_error(reason, fri));
+                    }
+                    Ok(Update::Event(CycleEvent::Resynchronised { reason, .. })) => {
+                        tracing::warn!(reason = %reason.describe(), "collision monitor restarted while sampling; restarting the window");
+                        avg = Averager::default();
+                    }
+                    Ok(Update::Event(_)) => {}
                     Err(RecvError::Lagged(n)) => {
                         // The sample must be contiguous: start over.
                         tracing::warn!(lost = n, "sampling fell behind; restarting the window");
                         avg = Averager::default();
                     }
                     Err(RecvError::Closed) => return Err(err(ErrorCode::NotReady, "the FRI loop has stopped")),
-                },
-                ev = events.recv() => match ev {
-                    Ok(RtEvent::Stopped { reason, fri, .. }) => {
-                        super::await_stopped_state(&mut states).await;
-                        return Err(Self::stop_error(reason, fri));
-                    }
-                    Ok(RtEvent::Resynchronised { reason, .. }) => {
-                        tracing::warn!(reason = %reason.describe(), "collision monitor restarted while sampling; restarting the window");
-                        avg = Averager::default();
-                    }
-                    _ => {}
                 },
                 silent = silence.silence() => {
                     return Err(self.silent_error(silent.as_secs_f64()));

@@ -1,0 +1,124 @@
+//! `estimate-payload`: the pose pattern with the payload, the one-shot estimate (paper eq. 26,
+//! with the stored tare when it matches), optionally applied.
+
+use dynamics::Model;
+use nalgebra::SVector;
+use serde_json::{Value, json};
+
+use crate::ipc::PayloadEstimate as IpcPayload;
+use crate::operator::server::EventSink;
+use crate::persistence::{AppliedPayload, StaticSample, Tare};
+use crate::service::core::{ServiceCore, err};
+use crate::service::pattern::PatternKind;
+use fri_api::protocol::{ErrorCode, OperatorError};
+
+impl ServiceCore {
+    /// `estimate-payload`.
+    #[allow(clippy::too_many_arguments)]
+    pub async fn estimate_payload(
+        &self,
+        around: Option<[f64; 7]>,
+        poses: Option<usize>,
+        step_deg: Option<f64>,
+        kind: PatternKind,
+        use_tare: Option<bool>,
+        apply: bool,
+        events: &EventSink,
+    ) -> Result<Value, OperatorError> {
+        let _guard = self.busy()?;
+        let tare = self.persistent(|s| s.tare.clone());
+        let (samples, around) = self
+            .run_pattern(around, poses, step_deg, kind, "estimate", events)
+            .await?;
+        events
+            .send(
+                "progress",
+                json!({"phase": "estimating", "workflow": "estimate"}),
+            )
+            .await;
+        let loaded: Vec<StaticSample> = samples.iter().map(|s| s.sample.clone()).collect();
+        let tare_matches = tare.as_ref().is_some_and(|t| {
+            t.samples.len() == loaded.len()
+                && t.samples
+                    .iter()
+                    .zip(&loaded)
+                    .all(|(a, b)| (0..7).all(|j| (a.q[j] - b.q[j]).abs() < 0.01))
+        });
+        let use_tare = match use_tare {
+            Some(true) if !tare_matches => {
+                return Err(err(
+                    ErrorCode::Failed,
+                    "no stored tare for these poses: run `tare` with the same pattern first",
+                ));
+            }
+            Some(u) => u,
+            None => tare_matches,
+        };
+        let estimate = estimate(
+            &self.model,
+            &loaded,
+            if use_tare { tare.as_ref() } else { None },
+        )?;
+        let mut result = serde_json::to_value(&estimate).unwrap_or(Value::Null);
+        result["tare_used"] = json!(use_tare);
+        if use_tare {
+            // The tare was applied here (Δτ = τ_loaded − τ_unloaded), not inside the estimator.
+            result["correction"] = json!("tare");
+        }
+        result["frame"] = json!("7");
+        result["around"] = json!(around);
+        result["applied"] = json!(apply);
+        if let Some(ipc) = &self.ipc {
+            ipc.payload(&IpcPayload {
+                time_s: self.shared.latest().map_or(0.0, |s| s.robot.time_s),
+                mass: estimate.mass,
+                com: estimate.com,
+                mass_std: estimate.mass_std,
+                com_std: estimate.com_std,
+                samples: estimate.samples as u32,
+                applied: 0,
+            });
+        }
+        if apply {
+            self.apply_payload(Some(AppliedPayload {
+                mass: estimate.mass,
+                com: estimate.com,
+            }))?;
+        }
+        Ok(result)
+    }
+}
+
+/// Runs the estimator on the loaded samples, with the tare subtracted sample by sample when
+/// given (Δτ = τ_loaded − τ_unloaded, eq. 25 in data space).
+pub fn estimate(
+    model: &Model<7>,
+    loaded: &[StaticSample],
+    tare: Option<&Tare>,
+) -> Result<estimator::estimate::PayloadEstimate, OperatorError> {
+    let to_est = |s: &StaticSample, reference: &[f64; 7]| {
+        estimator::samples::StaticSample::new(
+            SVector::from(s.q),
+            SVector::from(s.tau),
+            SVector::from(*reference),
+        )
+    };
+    let samples: Vec<_> = match tare {
+        Some(t) => loaded
+            .iter()
+            .zip(&t.samples)
+            .map(|(l, u)| to_est(l, &u.tau))
+            .collect(),
+        None => loaded.iter().map(|l| to_est(l, &l.gravity)).collect(),
+    };
+    let options = estimator::estimate::EstimateOptions {
+        // Averaged samples: the velocity check is done by the settle detector.
+        static_check: estimator::samples::StaticCheck {
+            max_velocity: f64::INFINITY,
+            max_drift: f64::INFINITY,
+        },
+        ..Default::default()
+    };
+    estimator::estimate::estimate_direct(model, &samples, &options)
+        .map_err(|e| err(ErrorCode::Failed, format!("estimation failed: {e}")))
+}

@@ -1,0 +1,17 @@
+//! The operator workflows, one file per command (mini-redis `cmd/` style): each takes its
+//! request's arguments, runs against the loop's ordered output ([`super::stream`]) and returns
+//! its result or an error with its cause. The shared steps are a commanded move ([`motion`]), a
+//! static sample ([`acquire`]) and the pose pattern ([`poses`]).
+
+pub mod acquire;
+pub mod collision;
+pub mod estimate;
+pub mod motion;
+pub mod payload;
+pub mod poses;
+pub mod record;
+pub mod sample;
+pub mod status;
+pub mod stop;
+pub mod tare;
+pub mod watch;

@@ -1,0 +1,47 @@
+//! `apply-payload` / `clear-payload`: install a payload in the observer (paper eq. 48),
+//! persist it and publish it.
+
+use serde_json::{Value, json};
+
+use crate::ipc::PayloadEstimate as IpcPayload;
+use crate::persistence::AppliedPayload;
+use crate::service::core::{ServiceCore, compensation, err};
+use crate::service::cycle::CycleRequest;
+use fri_api::protocol::{ErrorCode, OperatorError};
+
+impl ServiceCore {
+    /// `apply-payload`: to the observer and persisted.
+    pub fn apply_payload(&self, p: Option<AppliedPayload>) -> Result<Value, OperatorError> {
+        if let Some(p) = &p {
+            let ok = p.mass.is_finite()
+                && p.mass >= 0.0
+                && p.mass <= 20.0
+                && p.com.iter().all(|c| c.is_finite() && c.abs() <= 1.0);
+            if !ok {
+                return Err(err(
+                    ErrorCode::InvalidArguments,
+                    "mass must be in [0, 20] kg and each com coordinate in [-1, 1] m",
+                ));
+            }
+        }
+        self.send(CycleRequest::SetPayload(p.as_ref().map(compensation)))?;
+        self.store.save_payload(p.as_ref()).map_err(|e| {
+            err(
+                ErrorCode::Internal,
+                format!("payload applied but not persisted: {e}"),
+            )
+        })?;
+        self.persistent(|s| s.payload = p);
+        if let Some(ipc) = &self.ipc {
+            let latest = self.shared.latest();
+            ipc.payload(&IpcPayload {
+                time_s: latest.map_or(0.0, |s| s.robot.time_s),
+                mass: p.map_or(0.0, |p| p.mass),
+                com: p.map_or([0.0; 3], |p| p.com),
+                applied: u32::from(p.is_some()),
+                ..IpcPayload::default()
+            });
+        }
+        Ok(json!({"payload": p.map(|p| json!({"mass": p.mass, "com": p.com, "frame": "7"}))}))
+    }
+}

@@ -1,0 +1,31 @@
+//! `sample`: one averaged static sample at the current pose.
+
+use serde_json::{Value, json};
+
+use crate::service::core::{ServiceCore, err};
+use crate::service::settle::AveragedSample;
+use fri_api::protocol::{ErrorCode, OperatorError};
+
+impl ServiceCore {
+    /// `sample`: one averaged static sample at the current pose.
+    pub async fn sample(&self, duration_s: Option<f64>) -> Result<Value, OperatorError> {
+        let _guard = self.busy()?;
+        let d = duration_s.unwrap_or(self.config.estimation.average_s);
+        if !(d.is_finite() && d > 0.0 && d <= 60.0) {
+            return Err(err(
+                ErrorCode::InvalidArguments,
+                "duration_s must be in (0, 60]",
+            ));
+        }
+        let (s, settle_s) = self.acquire(true, d, None).await?;
+        Ok(sample_json(&s, settle_s))
+    }
+}
+
+fn sample_json(s: &AveragedSample, settle_s: f64) -> Value {
+    json!({
+        "q": s.sample.q, "tau": s.sample.tau, "gravity": s.sample.gravity,
+        "velocity_max": s.max_speed, "torque_std": s.torque_std, "drift": s.drift,
+        "cycles": s.cycles, "settle_s": settle_s,
+    })
+}

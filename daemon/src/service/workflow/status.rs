@@ -1,0 +1,61 @@
+//! `status`: the newest cycle, the controller's FRI view, the applied payload, the tare and
+//! the collision monitor's settings, read at once.
+
+use serde_json::{Value, json};
+
+use crate::service::core::ServiceCore;
+
+impl ServiceCore {
+    /// `status`.
+    pub fn status(&self) -> Value {
+        // One read: `connected` and the values shown must describe the same state.
+        let newest = self.shared.latest_with_age();
+        let connected = newest.is_some_and(|(_, age)| age <= self.connection_timeout());
+        let snapshot = newest.map(|(s, _)| s);
+        let latest = snapshot.map(|s| s.robot);
+        let (payload, armed, thresholds, gains, tare) = self.persistent(|p| {
+            (
+                p.payload,
+                p.armed,
+                p.thresholds,
+                p.gains,
+                p.tare.as_ref().map(|t| t.samples.len()),
+            )
+        });
+        let fri = self.fri_state.as_ref().map(|f| {
+            let s = f();
+            json!({
+                "valid": s.valid,
+                "state": format!("{:?}", s.measurement.interface.state),
+                "quality": format!("{:?}", s.measurement.interface.quality),
+                "krl_status": format!("{:?}", s.handshake.status),
+                "drop_reason": format!("{:?}", s.handshake.drop_reason),
+                "cycles": s.cycle,
+                "statistics": serde_json::to_value(s.statistics).unwrap_or(Value::Null),
+                "controller_statistics": serde_json::to_value(s.measurement.interface.statistics).unwrap_or(Value::Null),
+            })
+        });
+        json!({
+            "connected": connected,
+            "state": snapshot.map(|s| s.state),
+            "residual_valid": snapshot.is_some_and(|s| s.residual_valid()),
+            "fri": fri,
+            "cycle": latest.map(|s| s.cycle),
+            "time_s": latest.map(|s| s.time_s),
+            "q": latest.map(|s| s.q),
+            "qd": latest.map(|s| s.qd),
+            "tau": latest.map(|s| s.tau),
+            "gravity": latest.map(|s| s.gravity),
+            "tau_ext": latest.map(|s| s.tau_ext),
+            "residual": latest.map(|s| s.residual),
+            "command_mode": snapshot.is_some_and(|s| s.command_mode()),
+            "stopped": snapshot.is_some_and(|s| s.state.is_held()),
+            "collision": snapshot.is_some_and(|s| s.collision()),
+            "observer_fault": snapshot.is_some_and(|s| s.observer_fault()),
+            "moving": snapshot.is_some_and(|s| s.moving()),
+            "payload": payload.map(|p| json!({"mass": p.mass, "com": p.com, "frame": "7"})),
+            "tare_samples": tare,
+            "monitor": {"armed": armed, "thresholds": thresholds, "gains": gains},
+        })
+    }
+}

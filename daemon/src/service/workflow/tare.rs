@@ -1,0 +1,37 @@
+//! `tare`: the pose pattern without payload; the samples are stored and persisted so that a
+//! later estimate subtracts them pose by pose (Δτ = τ_loaded − τ_unloaded).
+
+use serde_json::{Value, json};
+
+use crate::operator::server::EventSink;
+use crate::persistence::Tare;
+use crate::service::core::{ServiceCore, err};
+use crate::service::pattern::PatternKind;
+use fri_api::protocol::{ErrorCode, OperatorError};
+
+impl ServiceCore {
+    /// `tare`: the pattern without payload, stored and persisted.
+    pub async fn tare(
+        &self,
+        around: Option<[f64; 7]>,
+        poses: Option<usize>,
+        step_deg: Option<f64>,
+        kind: PatternKind,
+        events: &EventSink,
+    ) -> Result<Value, OperatorError> {
+        let _guard = self.busy()?;
+        let (samples, around) = self
+            .run_pattern(around, poses, step_deg, kind, "tare", events)
+            .await?;
+        let tare = Tare {
+            around,
+            samples: samples.iter().map(|s| s.sample.clone()).collect(),
+        };
+        self.store
+            .save_tare(Some(&tare))
+            .map_err(|e| err(ErrorCode::Internal, format!("tare not persisted: {e}")))?;
+        let n = tare.samples.len();
+        self.persistent(|s| s.tare = Some(tare));
+        Ok(json!({"samples": n, "around": around}))
+    }
+}

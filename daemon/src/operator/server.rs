@@ -219,7 +219,12 @@ pub async fn bind(path: &Path) -> Result<UnixListener, ServerError> {
     Ok(listener)
 }
 
-/// Serves clients until `shutdown` becomes true; then stops accepting and closes connections.
+/// Longest wait at shutdown for the connections to answer their pending requests and close.
+const SHUTDOWN_GRACE: Duration = Duration::from_secs(2);
+
+/// Serves clients until `shutdown` becomes true; then stops accepting, answers every pending
+/// request with an error saying so, and waits (at most [`SHUTDOWN_GRACE`]) for every connection
+/// task to end.
 pub async fn serve<H: Handler>(
     listener: UnixListener,
     handler: Arc<H>,
@@ -229,7 +234,10 @@ pub async fn serve<H: Handler>(
 ) {
     let clients = Arc::new(Semaphore::new(limits.max_clients));
     let over_limit = Arc::new(Semaphore::new(limits.over_limit_connections));
+    let mut connections = tokio::task::JoinSet::new();
     loop {
+        // Reap finished connections so the set does not grow on a long-running service.
+        while connections.try_join_next().is_some() {}
         let accepted = tokio::select! {
             a = listener.accept() => a,
             _ = shutdown.wait_for(|s| *s) => break,
@@ -267,12 +275,12 @@ pub async fn serve<H: Handler>(
         let handler = handler.clone();
         if let Ok(permit) = clients.clone().try_acquire_owned() {
             let shutdown = shutdown.clone();
-            tokio::spawn(async move {
+            connections.spawn(async move {
                 connection(stream, handler, limits, shutdown).await;
                 drop(permit);
             });
         } else if let Ok(permit) = over_limit.clone().try_acquire_owned() {
-            tokio::spawn(async move {
+            connections.spawn(async move {
                 overflow::stop_only(stream, handler, limits).await;
                 drop(permit);
             });
@@ -280,7 +288,27 @@ pub async fn serve<H: Handler>(
             reject(stream, ErrorCode::Busy, overflow::TOO_MANY).await;
         }
     }
+    drop(listener);
+    let drained = tokio::time::timeout(SHUTDOWN_GRACE, async {
+        while connections.join_next().await.is_some() {}
+    })
+    .await;
+    if drained.is_err() {
+        warn!(
+            left = connections.len(),
+            "operator connections still open after the shutdown grace; closing them"
+        );
+        connections.shutdown().await;
+    }
     info!("operator socket closed");
+}
+
+/// The reply to a request still running when the service shuts down.
+fn shutting_down() -> OperatorError {
+    OperatorError::new(
+        ErrorCode::Aborted,
+        "the service is shutting down: the request was cancelled (any move was braked and command mode is being left)",
+    )
 }
 
 async fn reject(mut stream: UnixStream, code: ErrorCode, message: &str) {
@@ -308,13 +336,20 @@ async fn connection<H: Handler>(
     let in_flight = Arc::new(Semaphore::new(limits.max_in_flight));
     let mut reader = LineReader::new(read, limits.max_line_bytes);
     let mut tasks = tokio::task::JoinSet::new();
+    // Requests running on this connection, answered by the task itself or, at shutdown, here.
+    let mut pending = std::collections::HashMap::new();
     loop {
         // Idle: nothing in flight. The sleep restarts with every received line and every
         // finished request; `next_frame` is cancel-safe (bytes read are kept in its buffer).
         let idle = tasks.is_empty();
         let frame = tokio::select! {
             f = reader.next_frame() => Some(f),
-            Some(_) = tasks.join_next(), if !idle => continue,
+            Some(done) = tasks.join_next_with_id(), if !idle => {
+                if let Ok((task, ())) = done {
+                    pending.remove(&task);
+                }
+                continue;
+            }
             () = tokio::time::sleep(limits.idle_timeout), if idle => None,
             _ = shutdown.wait_for(|s| *s) => break,
         };
@@ -373,7 +408,8 @@ async fn connection<H: Handler>(
         };
         let handler = handler.clone();
         let out = out_tx.clone();
-        tasks.spawn(async move {
+        let id = request.id;
+        let task = tasks.spawn(async move {
             let sink = EventSink::new(Some(request.id), out.clone());
             let reply = match handler.handle(request.command, sink).await {
                 Ok(result) => Reply::ok(Some(request.id), result),
@@ -382,15 +418,39 @@ async fn connection<H: Handler>(
             let _ = out.send(reply.to_line()).await;
             drop(permit);
         });
+        pending.insert(task.id(), id);
         // Reap finished tasks so the set does not grow on long-lived connections.
-        while tasks.try_join_next().is_some() {}
+        while let Some(done) = tasks.try_join_next_with_id() {
+            if let Ok((task, ())) = done {
+                pending.remove(&task);
+            }
+        }
     }
     // The client closed its sending side: let running requests finish and reply (a client may
     // half-close after its last request); on shutdown abort them instead.
     loop {
         tokio::select! {
-            next = tasks.join_next() => if next.is_none() { break },
-            _ = shutdown.wait_for(|s| *s) => { tasks.abort_all(); break }
+            next = tasks.join_next_with_id() => match next {
+                None => break,
+                Some(Ok((task, ()))) => { pending.remove(&task); }
+                Some(Err(_)) => {}
+            },
+            _ = shutdown.wait_for(|s| *s) => break,
+        }
+    }
+    if !tasks.is_empty() {
+        // Shutdown: cancel what still runs and answer each request, so no client waits for a
+        // reply that never comes.
+        tasks.abort_all();
+        while let Some(done) = tasks.join_next_with_id().await {
+            if let Ok((task, ())) = done {
+                pending.remove(&task);
+            }
+        }
+        for id in pending.into_values() {
+            let _ = out_tx
+                .send(Reply::err(Some(id), shutting_down()).to_line())
+                .await;
         }
     }
     drop(out_tx);

@@ -14,11 +14,13 @@ use super::cycle::CycleRequest;
 use super::output::{FriContext, StopReason};
 use super::state::{LoopState, Snapshot};
 use super::stream::Shared;
+use super::stream::Update;
 use crate::config::Config;
 use crate::ipc::IpcSender;
 use crate::persistence::{AppliedPayload, StateStore, Tare};
 use fri_api::cause::Cause;
 use fri_api::protocol::{ErrorCode, OperatorError};
+use tokio::sync::broadcast::error::RecvError;
 
 /// Longest wait for the controller to enter command mode and start a move, s.
 pub(crate) const MOVE_START_TIMEOUT_S: f64 = 10.0;
@@ -205,6 +207,36 @@ impl ServiceCore {
     pub(crate) fn held_error(state: &LoopState) -> Option<OperatorError> {
         let (reason, fri) = state.stop()?;
         Some(Self::stop_error(reason, fri))
+    }
+
+    /// Waits until the controller is out of command mode (after [`CycleRequest::Shutdown`] or
+    /// [`CycleRequest::ReleaseCommandMode`]), the controller goes silent, or `timeout` passes;
+    /// says which in the log.
+    pub async fn leave_command_mode(&self, timeout: Duration) {
+        let mut updates = self.shared.subscribe();
+        let commanding = |s: &Snapshot| s.command_mode() || s.state == LoopState::EnteringCommand;
+        if !self.latest().is_ok_and(|s| commanding(&s)) {
+            return;
+        }
+        let _ = self.send(CycleRequest::ReleaseCommandMode);
+        let waited = tokio::time::timeout(timeout, async {
+            loop {
+                match updates.recv().await {
+                    Ok(Update::Snapshot(s)) if !commanding(&s) => return true,
+                    Ok(_) | Err(RecvError::Lagged(_)) => {}
+                    Err(RecvError::Closed) => return false,
+                }
+            }
+        })
+        .await;
+        match waited {
+            Ok(true) => tracing::info!("the controller left command mode"),
+            Ok(false) => tracing::warn!("the loop ended before the controller left command mode"),
+            Err(_) => tracing::warn!(
+                timeout_s = timeout.as_secs_f64(),
+                "the controller did not leave command mode in time; it brakes the arm itself when our answers stop"
+            ),
+        }
     }
 
     /// Leaves command mode (best effort).

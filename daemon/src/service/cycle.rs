@@ -72,6 +72,9 @@ pub enum CycleRequest {
     Arm(bool),
     /// Replace the collision monitor (new thresholds or gains); the payload is carried over.
     ReplaceMonitor(Box<CollisionMonitor<7>>),
+    /// The service shuts down: brake any move, forget pending ones, and leave command mode
+    /// through the handshake once the arm is at rest (no hold is latched: nothing to resume).
+    Shutdown,
 }
 
 /// Settings of the processor.
@@ -215,6 +218,13 @@ impl CycleProcessor {
                     }
                 }
                 CycleRequest::ReleaseCommandMode => {
+                    self.command_wanted = false;
+                }
+                CycleRequest::Shutdown => {
+                    if self.is_moving() {
+                        self.abort_move(AbortReason::ShuttingDown, fri);
+                    }
+                    self.brake();
                     self.command_wanted = false;
                 }
                 CycleRequest::Stop => {

@@ -41,6 +41,8 @@ use dispatch::Dispatcher;
 
 /// Capacity of the loop → fan-out queue, messages (≈ 4 s at 1 kHz).
 const EVENT_QUEUE: usize = 4096;
+/// Longest wait at shutdown for the controller to leave command mode after the brake.
+pub const LEAVE_COMMAND_TIMEOUT: Duration = Duration::from_secs(3);
 /// Capacity of the operator → loop queue, requests.
 const REQUEST_QUEUE: usize = 64;
 
@@ -165,7 +167,10 @@ impl RunningService {
         self.endpoint.as_ref().map(|e| e.local_addr())
     }
 
-    /// Serves the operator socket until `shutdown` becomes true.
+    /// Serves the operator socket until `shutdown` becomes true, then shuts down in order: the
+    /// loop brakes any move at once, every pending request is answered, the connection tasks end,
+    /// and the loop leaves command mode through the handshake (waited for at most
+    /// [`LEAVE_COMMAND_TIMEOUT`]).
     pub async fn serve_operator(&self, shutdown: watch::Receiver<bool>) -> anyhow::Result<()> {
         let c = &self.core.config().operator;
         let listener = server::bind(&c.socket).await?;
@@ -180,15 +185,24 @@ impl RunningService {
             idle_timeout: std::time::Duration::from_secs_f64(c.idle_timeout_s),
             ..ServerLimits::default()
         };
-        server::serve(
+        let mut flag = shutdown.clone();
+        let core = self.core.clone();
+        // Braking does not wait for the clients: the arm stops moving as soon as asked.
+        let brake = async move {
+            if flag.wait_for(|s| *s).await.is_ok() {
+                let _ = core.send(CycleRequest::Shutdown);
+            }
+        };
+        let serving = server::serve(
             listener,
             Arc::new(Dispatcher(self.core.clone())),
             policy,
             limits,
             shutdown,
-        )
-        .await;
+        );
+        tokio::join!(serving, brake);
         let _ = std::fs::remove_file(&c.socket);
+        self.core.leave_command_mode(LEAVE_COMMAND_TIMEOUT).await;
         Ok(())
     }
 

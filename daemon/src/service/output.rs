@@ -60,6 +60,8 @@ pub enum AbortReason {
     Unplannable,
     /// A brake interrupted the move (stop or reaction) and it ended at rest.
     Braked,
+    /// The service is shutting down: the move is braked and command mode left.
+    ShuttingDown,
 }
 
 impl AbortReason {
@@ -71,6 +73,7 @@ impl AbortReason {
             AbortReason::ControllerRestarted => "the controller restarted",
             AbortReason::Unplannable => "the move could not be planned",
             AbortReason::Braked => "the move was braked",
+            AbortReason::ShuttingDown => "the service is shutting down",
         }
     }
 }

@@ -161,6 +161,7 @@ impl ServiceCore {
                             return Err(held.unwrap_or_else(|| err(ErrorCode::Aborted, "the move was braked").with_cause(Cause::Held)));
                         }
                         AbortReason::Unplannable => return Err(err(ErrorCode::Failed, "the move could not be planned from the current set-point")),
+                        AbortReason::ShuttingDown => return Err(err(ErrorCode::Aborted, "the service is shutting down: the move was braked")),
                         AbortReason::CommandModeLost | AbortReason::ControllerRestarted => {
                             if retries >= MOVE_RETRIES {
                                 let cause = if reason == AbortReason::ControllerRestarted {

@@ -238,8 +238,7 @@ async fn collision_during_a_workflow_stops_the_arm_and_aborts() {
     .unwrap();
     let mut c = h.client().await;
     wait_connected(&mut c).await;
-    let events = collect_watch(h.client().await, None);
-    tokio::time::sleep(Duration::from_millis(100)).await;
+    let events = collect_watch(h.client().await, None).await;
     let e = call(&mut c, six_pose_tare()).await.unwrap_err();
     assert_eq!(e.code, fri_api::protocol::ErrorCode::Aborted, "{e:?}");
     let status = call(&mut c, Command::Status).await.unwrap();
@@ -272,7 +271,7 @@ async fn collision_during_a_workflow_stops_the_arm_and_aborts() {
     }
     // Resume clears the stop once the contact is gone.
     call(&mut c, Command::Resume).await.unwrap();
-    tokio::time::sleep(Duration::from_millis(300)).await;
+    wait_event(&events, "resumed", |e, _| e == "resumed").await;
     let status = call(&mut c, Command::Status).await.unwrap();
     assert_eq!(status["stopped"], false, "{status}");
     drop(driver.join());
@@ -370,9 +369,11 @@ async fn malformed_operator_input_never_disturbs_the_loop() {
     expected.sort_by_key(key);
     assert_eq!(codes, expected);
     // The loop kept running and the payload was not changed.
-    tokio::time::sleep(Duration::from_millis(100)).await;
-    let status = call(&mut c, Command::Status).await.unwrap();
-    assert!(status["cycle"].as_u64().unwrap() > before);
+    let mut status = call(&mut c, Command::Status).await.unwrap();
+    while status["cycle"].as_u64().unwrap() <= before {
+        tokio::task::yield_now().await;
+        status = call(&mut c, Command::Status).await.unwrap();
+    }
     assert!(status["payload"].is_null());
     assert_eq!(status["monitor"]["thresholds"][6], 6.0);
     drop(driver.join());
@@ -508,21 +509,43 @@ async fn iceoryx2_subscriber_receives_the_service_state() {
     h.stop().await;
 }
 
-/// Collects every event of a `watch` (with every `state_every`-th state) on its own connection.
-fn collect_watch(
-    mut watcher: Client,
-    state_every: Option<u32>,
-) -> std::sync::Arc<std::sync::Mutex<Vec<(String, Value)>>> {
-    let events = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+/// Events collected by [`collect_watch`].
+type Collected = std::sync::Arc<std::sync::Mutex<Vec<(String, Value)>>>;
+
+/// Collects every event of a `watch` (with every `state_every`-th state) on its own connection;
+/// returns once the service confirmed the subscription (its `watching` event).
+async fn collect_watch(mut watcher: Client, state_every: Option<u32>) -> Collected {
+    let events: Collected = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
     let sink = events.clone();
+    let (subscribed, confirmed) = tokio::sync::oneshot::channel();
+    let mut subscribed = Some(subscribed);
     tokio::spawn(async move {
         let _ = watcher
             .call(Command::Watch { state_every }, |e, d| {
+                if e == "watching" {
+                    if let Some(tx) = subscribed.take() {
+                        let _ = tx.send(());
+                    }
+                    return;
+                }
                 sink.lock().unwrap().push((e.to_owned(), d.clone()));
             })
             .await;
     });
+    confirmed.await.expect("watch never confirmed");
     events
+}
+
+/// Waits until an event matching `pred` was collected (bounded, so a missing event fails).
+async fn wait_event(events: &Collected, what: &str, pred: impl Fn(&str, &Value) -> bool) {
+    let deadline = std::time::Instant::now() + Duration::from_secs(20);
+    loop {
+        if events.lock().unwrap().iter().any(|(e, d)| pred(e, d)) {
+            return;
+        }
+        assert!(std::time::Instant::now() < deadline, "no {what} event");
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
 }
 
 /// The controller dies mid-workflow: the tare fails at once with `controller-silent`, `status`
@@ -539,12 +562,25 @@ async fn a_vanished_controller_fails_the_workflow_at_once_with_its_cause() {
     .unwrap();
     let mut c = h.client().await;
     wait_connected(&mut c).await;
+    // The controller goes away once the tare has moved to its first pose and settles there.
+    let (settling, at_pose) = tokio::sync::oneshot::channel();
     let killer = tokio::spawn(async move {
-        tokio::time::sleep(Duration::from_millis(700)).await;
+        let _ = at_pose.await;
         drop(driver.join());
     });
     let started = std::time::Instant::now();
-    let e = call(&mut c, six_pose_tare()).await.unwrap_err();
+    let mut settling = Some(settling);
+    let e = c
+        .call(six_pose_tare(), |_, d| {
+            if d["phase"] == "settling"
+                && let Some(tx) = settling.take()
+            {
+                let _ = tx.send(());
+            }
+        })
+        .await
+        .unwrap()
+        .unwrap_err();
     killer.await.unwrap();
     assert!(
         matches!(
@@ -575,7 +611,7 @@ async fn no_residual_from_an_unsynchronised_observer_is_published() {
         mock_robot::spawn_new(sim_config, ServerConfig::loopback(h.fri, lockstep())).unwrap();
     let mut c = h.client().await;
     wait_connected(&mut c).await;
-    let events = collect_watch(h.client().await, Some(1));
+    let events = collect_watch(h.client().await, Some(1)).await;
     while driver.counters().answer_counts().sent < 2500 {
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
@@ -642,7 +678,7 @@ async fn disarm_grasp_apply_arm_and_a_contact_stops_the_arm() {
     .unwrap();
     let mut c = h.client().await;
     wait_connected(&mut c).await;
-    let events = collect_watch(h.client().await, None);
+    let events = collect_watch(h.client().await, None).await;
     call(
         &mut c,
         Command::Collision {
@@ -670,10 +706,10 @@ async fn disarm_grasp_apply_arm_and_a_contact_stops_the_arm() {
     let r2 = status["residual"][1].as_f64().unwrap_or(0.0);
     assert!(r2.abs() > 6.0, "the uncompensated payload shows: {status}");
     assert_eq!(status["stopped"], false, "disarmed: nothing holds the arm");
+    // Payload then arming: the loop takes both from one queue, in this order.
     call(&mut c, Command::ApplyPayload { mass, com })
         .await
         .unwrap();
-    tokio::time::sleep(Duration::from_millis(50)).await;
     call(
         &mut c,
         Command::Collision {

@@ -29,6 +29,12 @@ impl ServiceCore {
         sink: &EventSink,
     ) -> Result<Value, OperatorError> {
         let mut updates = self.shared.subscribe();
+        // Says from which cycle on nothing is missed: a client (or test) acts after this event,
+        // not after a guessed delay.
+        let from = self.shared.latest().map(|s| s.robot.cycle);
+        if !sink.send("watching", json!({ "cycle": from })).await {
+            return Ok(json!({"watch": "ended"}));
+        }
         let every = state_every.map(|e| u64::from(e.max(1)));
         loop {
             let keep = tokio::select! {

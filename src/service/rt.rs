@@ -21,9 +21,9 @@
 
 use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
 
-use fri::endpoint::{CycleHook, CycleOutput};
+use fri::endpoint::{Cycle, CycleHook, CycleOutput};
 use fri::handshake::{HandshakeRequest, HandshakeStatus, KrlStatus, KrlStrategy, RequestKind};
-use fri::session::{Arrival, DesiredCommand};
+use fri::session::{DesiredCommand, Verdict};
 use fri::wire::{InterfaceState, Measurement, Quality};
 use nalgebra::SVector;
 use safety::{CollisionMonitor, ObserverInput, PayloadCompensation, ReactionRequest, StopCause};
@@ -337,19 +337,19 @@ impl CycleProcessor {
         }
     }
 
-    /// Processes one accepted measurement: `arrival` is how the session placed it in the
-    /// controller's sequence, `handshake` the KRL report in it and `request` the handshake
-    /// request we currently send. Returns the command wish for the session and, when needed, a
-    /// new handshake request.
+    /// Processes one accepted measurement: `verdict` is how the session placed it in the
+    /// controller's sequence and whether the controller commands, `handshake` the KRL report in
+    /// it and `request` the handshake request we currently send. Returns the command wish for
+    /// the session and, when needed, a new handshake request.
     pub fn on_measurement(
         &mut self,
         msr: &Measurement,
-        arrival: Arrival,
+        verdict: Verdict,
         handshake: HandshakeStatus,
         request: HandshakeRequest,
     ) -> (DesiredCommand, Option<(RequestKind, KrlStrategy)>) {
         let fri = FriContext::of(msr);
-        let elapsed = arrival.elapsed_cycles();
+        let elapsed = verdict.elapsed_cycles();
         let first = self.cycle == 0;
         self.cycle += 1;
         // Time from the controller's sequence counter, never from the host clock.
@@ -365,7 +365,7 @@ impl CycleProcessor {
 
         self.handle_requests(fri);
 
-        self.follow_command_mode(msr, restarted, fri);
+        self.follow_command_mode(msr, verdict.commanding, restarted, fri);
         let q = V7::from(msr.data.msr_jnt_pos);
         self.wait_for_rest(&q, dt);
         let tau = V7::from(msr.data.msr_jnt_trq);
@@ -433,8 +433,14 @@ impl CycleProcessor {
 
     /// Follows the controller's command mode; runs before the monitor steps, so that the
     /// cycle in which the controller starts braking is already treated as such.
-    fn follow_command_mode(&mut self, msr: &Measurement, restarted: bool, fri: FriContext) {
-        let in_command = msr.interface.state == InterfaceState::Command && msr.drives_powered();
+    /// `in_command` is the session's verdict (state CMD and a drive powered).
+    fn follow_command_mode(
+        &mut self,
+        msr: &Measurement,
+        in_command: bool,
+        restarted: bool,
+        fri: FriContext,
+    ) {
         if in_command && !self.in_command {
             // Entry: the session's step limits start from the mirrored set-point.
             self.setpoint = Some(V7::from(msr.mirrored_joint_position()));
@@ -599,13 +605,14 @@ impl CycleProcessor {
 }
 
 impl CycleHook for CycleProcessor {
-    fn on_cycle(&mut self, state: &fri::state::RobotState, output: &mut CycleOutput) {
+    fn on_cycle(&mut self, cycle: &Cycle<'_>, output: &mut CycleOutput) {
+        let state = cycle.state;
         if !state.valid {
             return;
         }
         let (desired, request) = self.on_measurement(
             &state.measurement,
-            state.arrival.unwrap_or(Arrival::First),
+            cycle.verdict,
             state.handshake,
             state.request,
         );

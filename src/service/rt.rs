@@ -22,7 +22,7 @@
 use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
 
 use fri::endpoint::{Cycle, CycleHook, CycleOutput};
-use fri::handshake::{HandshakeRequest, HandshakeStatus, KrlStatus, KrlStrategy, RequestKind};
+use fri::handshake::{HandshakeRequest, HandshakeStatus, KrlStrategy, RequestKind, RequestRetry};
 use fri::session::{DesiredCommand, Verdict};
 use fri::wire::{InterfaceState, Measurement, Quality};
 use nalgebra::SVector;
@@ -36,9 +36,6 @@ use crate::motion::{JointMove, MotionLimits};
 
 type V7 = SVector<f64, 7>;
 
-/// Cycles between two handshake requests of the same kind (retry period when the controller does
-/// not follow), at 1 ms: 0.5 s.
-const REQUEST_RETRY_CYCLES: u64 = 500;
 /// Longest gap the observer integrates across, controller cycles (its time-step band is 3 T).
 pub const MAX_BRIDGED_CYCLES: u32 = 3;
 /// Joint speed below which the arm counts as at rest after the controller braked it, rad/s.
@@ -110,7 +107,7 @@ pub struct CycleProcessor {
     reaction_hold: bool,
     resume_when_clear: bool,
     interrupted_target: Option<V7>,
-    last_request_cycle: u64,
+    retry: RequestRetry,
     last_residual: V7,
     observer_fault: bool,
     collision_now: bool,
@@ -156,7 +153,7 @@ impl CycleProcessor {
             reaction_hold: false,
             resume_when_clear: false,
             interrupted_target: None,
-            last_request_cycle: 0,
+            retry: RequestRetry::default(),
             last_residual: V7::zeros(),
             observer_fault: false,
             collision_now: false,
@@ -523,25 +520,18 @@ impl CycleProcessor {
         status: HandshakeStatus,
         current: HandshakeRequest,
     ) -> Option<(RequestKind, KrlStrategy)> {
-        let since = self.cycle.saturating_sub(self.last_request_cycle);
-        let quality_ok = matches!(msr.interface.quality, Quality::Ok | Quality::Perfect);
         let busy = self.motion.is_some() || self.pending_target.is_some();
-        if self.command_wanted && !self.in_command {
-            let start_pending =
-                current.kind == RequestKind::StartCommandMode && since < REQUEST_RETRY_CYCLES;
-            if !start_pending && status.status == KrlStatus::MonitorReady && quality_ok {
-                self.last_request_cycle = self.cycle;
-                return Some((RequestKind::StartCommandMode, KrlStrategy::JointPosition));
-            }
+        let wanted = if self.command_wanted && !self.in_command {
+            status
+                .accepts_start(msr.interface.quality)
+                .then_some((RequestKind::StartCommandMode, KrlStrategy::JointPosition))
         } else if !self.command_wanted && self.in_command && !busy {
-            let stop_pending =
-                current.kind == RequestKind::StopCommandMode && since < REQUEST_RETRY_CYCLES;
-            if !stop_pending {
-                self.last_request_cycle = self.cycle;
-                return Some((RequestKind::StopCommandMode, KrlStrategy::None));
-            }
-        }
-        None
+            Some((RequestKind::StopCommandMode, KrlStrategy::None))
+        } else {
+            None
+        };
+        // Called every cycle: the retry counts cycles between requests of the same kind.
+        self.retry.poll(wanted, &current)
     }
 
     fn publish(&mut self, msr: &Measurement, velocity: &V7) {

@@ -11,7 +11,7 @@ use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 
 use dynamics::{Data, Model, compute_generalized_gravity, payload_gravity_regressor};
 use fri::handshake::{HandshakeRequest, HandshakeStatus};
-use fri::session::Arrival;
+use fri::session::{Arrival, Verdict};
 use fri::wire::{InterfaceState, Measurement, Quality};
 use fri_service::config::{Config, ReactionPolicy};
 use fri_service::motion::MotionLimits;
@@ -145,7 +145,7 @@ impl Rig {
         };
         let (desired, _) = self.processor.on_measurement(
             &m,
-            arrival,
+            Verdict::new(&m, arrival),
             HandshakeStatus::NOT_REPORTED,
             HandshakeRequest::NONE,
         );

@@ -1,4 +1,5 @@
-//! One FRI cycle: parse + session step (validation, counters, mirroring/limits) + emit.
+//! One FRI cycle: parse + session step (validation, counters, mirroring/limits) + emit, and the
+//! endpoint's whole loop body (`Responder::cycle`: the same plus state refresh, events and hook).
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 use std::hint::black_box;
@@ -6,6 +7,7 @@ use std::net::SocketAddr;
 use std::time::Instant;
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use fri::endpoint::{Cycle, CycleOutput, Responder};
 use fri::handshake::{KrlStrategy, RequestKind};
 use fri::session::{DesiredCommand, Session, SessionConfig};
 use fri::wire::{CMD_LEN, Command, InterfaceState, MSR_LEN, Measurement};
@@ -52,6 +54,34 @@ fn cycle(c: &mut Criterion) {
                         black_box(&desired),
                         &mut out,
                     )
+                    .unwrap();
+                black_box(out[0]);
+                black_box(info)
+            })
+        });
+    }
+    for (name, state) in [
+        ("monitor_mode", InterfaceState::Monitor),
+        ("command_mode", InterfaceState::Command),
+    ] {
+        let mut datagram = measurement(state);
+        // What an application hook does at least: read the verdict and events, set a wish.
+        let hook = |cycle: &Cycle<'_>, out: &mut CycleOutput| {
+            black_box((cycle.elapsed(), cycle.events.len()));
+            out.desired.joint_position = Some([0.5; 7]);
+        };
+        let mut responder = Responder::new(SessionConfig::default(), hook);
+        responder
+            .session_mut()
+            .request(RequestKind::StartCommandMode, KrlStrategy::JointImpedance);
+        let mut out = [0u8; CMD_LEN];
+        let mut seq = 0u16;
+        c.bench_function(&format!("cycle/responder/{name}"), |b| {
+            b.iter(|| {
+                seq = seq.wrapping_add(1);
+                datagram[0..2].copy_from_slice(&seq.to_le_bytes());
+                let info = responder
+                    .cycle(black_box(&datagram), src, now, &mut out)
                     .unwrap();
                 black_box(out[0]);
                 black_box(info)

@@ -18,10 +18,19 @@
 //! A start is honoured only in monitor mode with quality ≥ OK, the strategy's command flags
 //! already set (POSITION 0x0001, JNT_IMP 0x0035), the set-point mirrored and the added torque 0;
 //! [`crate::session::Session`] keeps all of these true by construction.
+//!
+//! The KRL program acts once per new request id and does not retry: when the controller does
+//! not follow (a start refused because the quality dipped, a stop lost in a restart), the
+//! remote has to send the request again with a new id. [`RequestRetry`] says when, cycle by
+//! cycle, without a clock.
 
 use serde::{Deserialize, Serialize};
 
-use crate::wire::{Command, CommandFlags, ControlStrategy, KrlData, Measurement};
+use crate::wire::{Command, CommandFlags, ControlStrategy, KrlData, Measurement, Quality};
+
+/// Default cycles between two requests of the same kind when the controller does not follow
+/// (0.5 s at FRI's 1 ms cycle: several KRL loop turns, well short of an operator's patience).
+pub const DEFAULT_RETRY_CYCLES: u32 = 500;
 
 /// `cmd.krl.intData` index of the request.
 pub const REQUEST_INDEX: usize = 15;
@@ -330,6 +339,65 @@ impl HandshakeStatus {
     pub fn has_acknowledged(&self, id: i32) -> bool {
         self.acknowledged_id == id
     }
+
+    /// True when the program would honour a start now: it reports monitor mode ready and the
+    /// communication `quality` is at least OK (below it the controller refuses command mode).
+    pub fn accepts_start(&self, quality: Quality) -> bool {
+        self.status == KrlStatus::MonitorReady && matches!(quality, Quality::Ok | Quality::Perfect)
+    }
+}
+
+/// When to (re)send a start or stop request: sans-IO, one [`RequestRetry::poll`] per cycle.
+///
+/// A request is due when the one written into replies is of another kind (a change of mind
+/// goes out at once), or of the same kind but sent `period` cycles ago or more (the controller
+/// did not follow: send it again with a new id). Between those, the pending request stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RequestRetry {
+    period: u32,
+    /// Cycles since this retry last asked for a request (saturating).
+    since: u32,
+}
+
+impl Default for RequestRetry {
+    fn default() -> Self {
+        Self::new(DEFAULT_RETRY_CYCLES)
+    }
+}
+
+impl RequestRetry {
+    /// A retry that resends after `period` cycles (at least 1); nothing sent yet.
+    pub const fn new(period: u32) -> Self {
+        let period = if period == 0 { 1 } else { period };
+        Self {
+            period,
+            since: period,
+        }
+    }
+
+    /// Cycles between two requests of the same kind.
+    pub const fn period(&self) -> u32 {
+        self.period
+    }
+
+    /// One cycle. `wanted` is the request the application needs in effect now (`None`: none;
+    /// pass a start only when [`HandshakeStatus::accepts_start`] holds), `current` the request
+    /// the session writes into replies. Returns the request to send from this cycle on (a new
+    /// id, through `Session::request`), or `None` when the current one stands.
+    pub fn poll(
+        &mut self,
+        wanted: Option<(RequestKind, KrlStrategy)>,
+        current: &HandshakeRequest,
+    ) -> Option<(RequestKind, KrlStrategy)> {
+        self.since = self.since.saturating_add(1);
+        let (kind, _) = wanted?;
+        let pending = current.kind == kind && self.since < self.period;
+        if pending {
+            return None;
+        }
+        self.since = 0;
+        wanted
+    }
 }
 
 #[cfg(test)]
@@ -370,6 +438,89 @@ mod tests {
         assert_eq!(HandshakeStatus::read_from_measurement(&msr), st);
         assert!(st.has_acknowledged(3));
         assert!(!st.has_acknowledged(4));
+    }
+
+    const START: Option<(RequestKind, KrlStrategy)> =
+        Some((RequestKind::StartCommandMode, KrlStrategy::JointPosition));
+    const STOP: Option<(RequestKind, KrlStrategy)> =
+        Some((RequestKind::StopCommandMode, KrlStrategy::None));
+
+    /// The request a session would write after sending `sent` (ids are not looked at).
+    fn written(sent: Option<(RequestKind, KrlStrategy)>) -> HandshakeRequest {
+        sent.map_or(HandshakeRequest::NONE, |(kind, strategy)| {
+            HandshakeRequest {
+                kind,
+                strategy,
+                id: 1,
+            }
+        })
+    }
+
+    #[test]
+    fn retry_sends_at_once_then_once_per_period_while_wanted() {
+        let mut retry = RequestRetry::new(3);
+        let mut current = HandshakeRequest::NONE;
+        let mut sent_in = Vec::new();
+        for cycle in 1..=8 {
+            if let Some(r) = retry.poll(START, &current) {
+                assert_eq!(Some(r), START);
+                current = written(Some(r));
+                sent_in.push(cycle);
+            }
+        }
+        // Cycle 1 at once, then every third cycle while the controller does not follow.
+        assert_eq!(sent_in, [1, 4, 7]);
+    }
+
+    #[test]
+    fn retry_sends_nothing_while_nothing_is_wanted_and_a_change_goes_out_at_once() {
+        let mut retry = RequestRetry::new(3);
+        let start = written(START);
+        assert_eq!(retry.poll(START, &HandshakeRequest::NONE), START);
+        // Cycle 2: the start stands; cycle 3: nothing wanted (e.g. entered command mode).
+        assert_eq!(retry.poll(START, &start), None);
+        assert_eq!(retry.poll(None, &start), None);
+        // Cycle 4: a stop is wanted one cycle after the start: another kind, sent at once.
+        assert_eq!(retry.poll(STOP, &start), STOP);
+        let stop = written(STOP);
+        assert_eq!(retry.poll(STOP, &stop), None);
+        assert_eq!(retry.poll(STOP, &stop), None);
+        assert_eq!(retry.poll(STOP, &stop), STOP, "period over: resent");
+    }
+
+    #[test]
+    fn retry_resends_a_same_kind_request_that_was_not_its_own_once_the_period_passed() {
+        // Another part of the application wrote a start long ago: not pending for us.
+        let mut retry = RequestRetry::new(500);
+        assert_eq!(retry.poll(START, &written(START)), START);
+        // Idle cycles count towards the period too.
+        let mut retry = RequestRetry::new(2);
+        assert_eq!(retry.poll(START, &HandshakeRequest::NONE), START);
+        assert_eq!(retry.poll(None, &written(START)), None);
+        assert_eq!(retry.poll(START, &written(START)), START);
+        // A zero period is one cycle: never stuck, never more than once per cycle.
+        let mut retry = RequestRetry::new(0);
+        assert_eq!(retry.period(), 1);
+        assert_eq!(retry.poll(STOP, &written(STOP)), STOP);
+        assert_eq!(retry.poll(STOP, &written(STOP)), STOP);
+    }
+
+    #[test]
+    fn start_is_accepted_only_in_monitor_ready_with_quality_ok() {
+        let ready = HandshakeStatus {
+            status: KrlStatus::MonitorReady,
+            ..HandshakeStatus::NOT_REPORTED
+        };
+        assert!(ready.accepts_start(Quality::Ok));
+        assert!(ready.accepts_start(Quality::Perfect));
+        assert!(!ready.accepts_start(Quality::Bad));
+        assert!(!ready.accepts_start(Quality::Unacceptable));
+        let active = HandshakeStatus {
+            status: KrlStatus::CommandActive,
+            ..ready
+        };
+        assert!(!active.accepts_start(Quality::Perfect));
+        assert!(!HandshakeStatus::NOT_REPORTED.accepts_start(Quality::Perfect));
     }
 
     #[test]

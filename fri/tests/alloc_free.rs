@@ -1,5 +1,5 @@
-//! Proof that one cycle (parse + session step + emit, and the snapshot publish of the
-//! real-time loop) never touches the heap.
+//! Proof that one cycle (parse + session step + emit, the endpoint's loop body with its hook
+//! and events, and the snapshot publish of the real-time loop) never touches the heap.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 mod common;
@@ -7,7 +7,7 @@ mod common;
 use std::net::SocketAddr;
 use std::time::{Duration, Instant};
 
-use fri::endpoint::triple_buffer;
+use fri::endpoint::{Cycle, CycleHook, CycleOutput, Responder, triple_buffer};
 use fri::handshake::{KrlStrategy, RequestKind};
 use fri::session::{DesiredCommand, Session, SessionConfig};
 use fri::state::RobotState;
@@ -75,6 +75,62 @@ fn one_cycle_allocates_nothing() {
     assert_eq!(replies, 198);
     // The work was real: the set-point was limited in every command-mode cycle.
     assert!(session.statistics().limits.joint_steps_clamped >= 198);
+}
+
+/// A hook that reads everything the cycle offers, as an application would.
+struct Reader {
+    events: usize,
+    cycles: u32,
+}
+
+impl CycleHook for Reader {
+    fn on_cycle(&mut self, cycle: &Cycle<'_>, output: &mut CycleOutput) {
+        self.events += cycle.events.len();
+        self.cycles += cycle.verdict.elapsed_cycles().unwrap_or(0);
+        output.desired.joint_position = Some([1.0; 7]);
+        if cycle.commanding() {
+            output.request = Some((RequestKind::StopCommandMode, KrlStrategy::None));
+        }
+    }
+}
+
+#[test]
+fn the_endpoint_loop_body_allocates_nothing_with_events_every_cycle() {
+    let src: SocketAddr = "192.168.0.20:49938".parse().unwrap();
+    let mut responder = Responder::new(
+        SessionConfig::default(),
+        Reader {
+            events: 0,
+            cycles: 0,
+        },
+    );
+    // Command mode entered and left every other cycle: events and requests in every cycle.
+    let datagrams: Vec<[u8; MSR_LEN]> = (1..200)
+        .map(|s| {
+            let state = if s % 2 == 0 {
+                InterfaceState::Command
+            } else {
+                InterfaceState::Monitor
+            };
+            datagram(s, state)
+        })
+        .collect();
+    let (mut writer, _reader) = triple_buffer(RobotState::default());
+    let mut out = [0u8; CMD_LEN];
+    let t0 = Instant::now();
+    responder.cycle(&datagrams[0], src, t0, &mut out).unwrap();
+    let allocations = alloc_counter::count_allocations(|| {
+        for (k, d) in datagrams[1..].iter().enumerate() {
+            let now = t0 + Duration::from_millis(k as u64 + 1);
+            responder.cycle(d, src, now, &mut out).unwrap();
+            writer.publish(responder.state());
+        }
+        assert!(responder.cycle(&[], src, t0, &mut out).is_err());
+    });
+    assert_eq!(allocations, 0);
+    // The work was real: one event per cycle reached the hook, one cycle elapsed each time.
+    assert_eq!(responder.hook().events, 198);
+    assert_eq!(responder.hook().cycles, 198);
 }
 
 #[test]

@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use common::{measurement_datagram, mirrored_set_point};
 use fri::endpoint::{
-    CycleOutput, Endpoint, EndpointConfig, EndpointMessage, RealtimeConfig, SocketConfig,
+    Cycle, CycleOutput, Endpoint, EndpointConfig, EndpointMessage, RealtimeConfig, SocketConfig,
     monitor_hook,
 };
 use fri::handshake::{KrlStrategy, RequestKind};
@@ -176,7 +176,8 @@ fn bad_datagrams_are_counted_unanswered_and_the_last_good_state_stays() {
 
 #[test]
 fn hook_and_queue_reach_the_reply() {
-    let hook = |state: &RobotState, out: &mut CycleOutput| {
+    let hook = |cycle: &Cycle<'_>, out: &mut CycleOutput| {
+        let state = cycle.state;
         // Ask for command mode once, on the controller's counter 3.
         if state.krc_sequence_counter() == 3 {
             out.request = Some((RequestKind::StartCommandMode, KrlStrategy::JointImpedance));
@@ -217,7 +218,8 @@ fn queued_stale_datagrams_are_drained_and_only_the_newest_is_answered() {
     let stalled = Arc::new(AtomicBool::new(false));
     let hook = {
         let stalled = Arc::clone(&stalled);
-        move |state: &RobotState, _: &mut CycleOutput| {
+        move |cycle: &Cycle<'_>, _: &mut CycleOutput| {
+            let state = cycle.state;
             if state.krc_sequence_counter() == 1 {
                 stalled.store(true, Ordering::Release);
                 std::thread::sleep(Duration::from_millis(100));
@@ -289,7 +291,8 @@ fn datagrams_from_an_unexpected_source_are_not_answered() {
 fn command_mode_replies_respect_frozen_flags_and_step_limits_every_cycle() {
     use fri::wire::{MSR_LEN, Measurement};
     // The application asks for command mode and a set-point 10 mrad away on every joint.
-    let hook = |state: &RobotState, out: &mut CycleOutput| {
+    let hook = |cycle: &Cycle<'_>, out: &mut CycleOutput| {
+        let state = cycle.state;
         if state.krc_sequence_counter() == 5 {
             out.request = Some((RequestKind::StartCommandMode, KrlStrategy::JointImpedance));
         }

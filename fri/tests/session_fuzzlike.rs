@@ -50,7 +50,7 @@ proptest! {
             let before = session.statistics();
             match session.receive(&datagram, src, t) {
                 Ok(m) => {
-                    newest_accepted = Some(*m);
+                    newest_accepted = Some(*m.measurement);
                     let info = session.respond(&DesiredCommand::default(), t, &mut out).unwrap();
                     let reply = CommandPacket::new_checked(&out[..]).unwrap();
                     prop_assert!(reply.check().is_ok());

@@ -37,7 +37,7 @@ fuzz_target!(|data: &[u8]| {
         let before = session.statistics();
         match session.receive(datagram, source, now) {
             Ok(m) => {
-                let seq = m.header.send_seq_count;
+                let seq = m.measurement.header.send_seq_count;
                 // Every accepted measurement gets a valid, finite reply reflecting its counter,
                 // unless the controller's own set-point overflows f32 when mirrored (then no
                 // reply is sent and the failure is counted).

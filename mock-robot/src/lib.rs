@@ -18,6 +18,7 @@ pub mod sensors;
 pub mod server;
 pub mod simulation;
 pub mod stats;
+pub mod testkit;
 pub mod truth;
 
 pub use config::SimulationConfig;

@@ -403,7 +403,7 @@ impl Simulation {
         self.last_event
     }
 
-    /// Code of the last drop reason (msr.krl.intData[12]).
+    /// Code of the last drop reason (`msr.krl.intData[12]`).
     pub fn drop_reason_code(&self) -> i32 {
         self.krl.reason_code()
     }

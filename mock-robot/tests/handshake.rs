@@ -2,12 +2,10 @@
 //! violation drops to (or stays in) MON with its reason code.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
-mod common;
-
-use common::*;
 use fri::handshake::{DropReason, KrlStatus, KrlStrategy, RequestKind};
 use fri::wire::{CMD_LEN, InterfaceState, Measurement, Quality};
 use mock_robot::Simulation;
+use mock_robot::testkit::*;
 
 #[test]
 fn mon_cmd_mon_in_both_strategies_with_motion() {
@@ -19,7 +17,7 @@ fn mon_cmd_mon_in_both_strategies_with_motion() {
         assert_eq!(status(&first).status, KrlStatus::MonitorReady);
         let m = client.run(&mut sim, 150);
         assert_eq!(m.interface.quality, Quality::Perfect);
-        let m = enter_command(&mut sim, &mut client, strategy);
+        let m = enter_command(&mut sim, &mut client, strategy).unwrap();
         let q0 = m.data.msr_jnt_pos;
         // Command a slow 0.1 rad move of joint 4 over 2 s and check the arm follows.
         let mut target = q0;
@@ -248,7 +246,7 @@ fn operator_stop_and_close() {
     };
     let mut sim = Simulation::new(config).unwrap();
     let mut client = Client::new();
-    enter_command(&mut sim, &mut client, KrlStrategy::JointImpedance);
+    enter_command(&mut sim, &mut client, KrlStrategy::JointImpedance).unwrap();
     let m = client
         .run_until(&mut sim, 1000, in_monitor)
         .expect("operator stop");

@@ -3,13 +3,11 @@
 //! contacts enter as Jᵀ F.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
-mod common;
-
-use common::*;
 use dynamics::{Data, InertialParameters};
 use fri::handshake::KrlStrategy;
 use mock_robot::config::{ModelErrorSpec, SensorSpec};
 use mock_robot::contact::{ContactProfile, ContactSpec};
+use mock_robot::testkit::*;
 use mock_robot::{Simulation, SimulationConfig};
 use nalgebra::{SVector, Vector3};
 

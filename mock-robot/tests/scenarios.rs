@@ -2,11 +2,9 @@
 //! controller restart are survived and counted.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
-mod common;
-
-use common::*;
 use fri::handshake::{DropReason, KrlStrategy, RequestKind};
 use fri::wire::InterfaceState;
+use mock_robot::testkit::*;
 use mock_robot::{Simulation, SimulationConfig};
 
 fn scenario(name: &str) -> SimulationConfig {

@@ -21,9 +21,9 @@
 
 use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
 
-use fri::endpoint::{CycleHook, CycleOutput};
-use fri::handshake::{HandshakeRequest, HandshakeStatus, KrlStatus, KrlStrategy, RequestKind};
-use fri::session::{Arrival, DesiredCommand};
+use fri::endpoint::{Cycle, CycleHook, CycleOutput};
+use fri::handshake::{HandshakeRequest, HandshakeStatus, KrlStrategy, RequestKind, RequestRetry};
+use fri::session::{DesiredCommand, Verdict};
 use fri::wire::{InterfaceState, Measurement, Quality};
 use nalgebra::SVector;
 use safety::{CollisionMonitor, ObserverInput, PayloadCompensation, ReactionRequest, StopCause};
@@ -36,9 +36,6 @@ use fri_api::ipc::flags;
 
 type V7 = SVector<f64, 7>;
 
-/// Cycles between two handshake requests of the same kind (retry period when the controller does
-/// not follow), at 1 ms: 0.5 s.
-const REQUEST_RETRY_CYCLES: u64 = 500;
 /// Longest gap the observer integrates across, controller cycles (its time-step band is 3 T).
 pub const MAX_BRIDGED_CYCLES: u32 = 3;
 /// Joint speed below which the arm counts as at rest after the controller braked it, rad/s.
@@ -113,7 +110,7 @@ pub struct CycleProcessor {
     reaction_hold: bool,
     resume_when_clear: bool,
     interrupted_target: Option<V7>,
-    last_request_cycle: u64,
+    retry: RequestRetry,
     last_residual: V7,
     observer_fault: bool,
     collision_now: bool,
@@ -159,7 +156,7 @@ impl CycleProcessor {
             reaction_hold: false,
             resume_when_clear: false,
             interrupted_target: None,
-            last_request_cycle: 0,
+            retry: RequestRetry::default(),
             last_residual: V7::zeros(),
             observer_fault: false,
             collision_now: false,
@@ -347,19 +344,19 @@ impl CycleProcessor {
         }
     }
 
-    /// Processes one accepted measurement: `arrival` is how the session placed it in the
-    /// controller's sequence, `handshake` the KRL report in it and `request` the handshake
-    /// request we currently send. Returns the command wish for the session and, when needed, a
-    /// new handshake request.
+    /// Processes one accepted measurement: `verdict` is how the session placed it in the
+    /// controller's sequence and whether the controller commands, `handshake` the KRL report in
+    /// it and `request` the handshake request we currently send. Returns the command wish for
+    /// the session and, when needed, a new handshake request.
     pub fn on_measurement(
         &mut self,
         msr: &Measurement,
-        arrival: Arrival,
+        verdict: Verdict,
         handshake: HandshakeStatus,
         request: HandshakeRequest,
     ) -> (DesiredCommand, Option<(RequestKind, KrlStrategy)>) {
         let fri = FriContext::of(msr);
-        let elapsed = arrival.elapsed_cycles();
+        let elapsed = verdict.elapsed_cycles();
         let first = self.cycle == 0;
         self.cycle += 1;
         // Time from the controller's sequence counter, never from the host clock.
@@ -375,7 +372,7 @@ impl CycleProcessor {
 
         self.handle_requests(fri);
 
-        self.follow_command_mode(msr, restarted, fri);
+        self.follow_command_mode(msr, verdict.commanding, restarted, fri);
         let q = V7::from(msr.data.msr_jnt_pos);
         self.wait_for_rest(&q, dt);
         let tau = V7::from(msr.data.msr_jnt_trq);
@@ -443,8 +440,14 @@ impl CycleProcessor {
 
     /// Follows the controller's command mode; runs before the monitor steps, so that the
     /// cycle in which the controller starts braking is already treated as such.
-    fn follow_command_mode(&mut self, msr: &Measurement, restarted: bool, fri: FriContext) {
-        let in_command = msr.interface.state == InterfaceState::Command && msr.drives_powered();
+    /// `in_command` is the session's verdict (state CMD and a drive powered).
+    fn follow_command_mode(
+        &mut self,
+        msr: &Measurement,
+        in_command: bool,
+        restarted: bool,
+        fri: FriContext,
+    ) {
         if in_command && !self.in_command {
             // Entry: the session's step limits start from the mirrored set-point.
             self.setpoint = Some(V7::from(msr.mirrored_joint_position()));
@@ -527,25 +530,18 @@ impl CycleProcessor {
         status: HandshakeStatus,
         current: HandshakeRequest,
     ) -> Option<(RequestKind, KrlStrategy)> {
-        let since = self.cycle.saturating_sub(self.last_request_cycle);
-        let quality_ok = matches!(msr.interface.quality, Quality::Ok | Quality::Perfect);
         let busy = self.motion.is_some() || self.pending_target.is_some();
-        if self.command_wanted && !self.in_command {
-            let start_pending =
-                current.kind == RequestKind::StartCommandMode && since < REQUEST_RETRY_CYCLES;
-            if !start_pending && status.status == KrlStatus::MonitorReady && quality_ok {
-                self.last_request_cycle = self.cycle;
-                return Some((RequestKind::StartCommandMode, KrlStrategy::JointPosition));
-            }
+        let wanted = if self.command_wanted && !self.in_command {
+            status
+                .accepts_start(msr.interface.quality)
+                .then_some((RequestKind::StartCommandMode, KrlStrategy::JointPosition))
         } else if !self.command_wanted && self.in_command && !busy {
-            let stop_pending =
-                current.kind == RequestKind::StopCommandMode && since < REQUEST_RETRY_CYCLES;
-            if !stop_pending {
-                self.last_request_cycle = self.cycle;
-                return Some((RequestKind::StopCommandMode, KrlStrategy::None));
-            }
-        }
-        None
+            Some((RequestKind::StopCommandMode, KrlStrategy::None))
+        } else {
+            None
+        };
+        // Called every cycle: the retry counts cycles between requests of the same kind.
+        self.retry.poll(wanted, &current)
     }
 
     fn publish(&mut self, msr: &Measurement, velocity: &V7) {
@@ -612,13 +608,14 @@ impl CycleProcessor {
 }
 
 impl CycleHook for CycleProcessor {
-    fn on_cycle(&mut self, state: &fri::state::RobotState, output: &mut CycleOutput) {
+    fn on_cycle(&mut self, cycle: &Cycle<'_>, output: &mut CycleOutput) {
+        let state = cycle.state;
         if !state.valid {
             return;
         }
         let (desired, request) = self.on_measurement(
             &state.measurement,
-            state.arrival.unwrap_or(Arrival::First),
+            cycle.verdict,
             state.handshake,
             state.request,
         );

@@ -1,12 +1,14 @@
 //! One service cycle outside the endpoint thread, for the per-cycle benchmark, the latency
 //! example and the allocation test: datagram → `fri::session` validation → [`CycleProcessor`]
-//! (observer step, motion, handshake) → reply encoding, exactly as the endpoint runs it.
+//! (observer step, motion, handshake) → reply encoding, exactly as the endpoint runs it: the
+//! cycle is `fri::endpoint::Responder::cycle`, the endpoint thread's own loop body.
 
 use std::net::SocketAddr;
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::time::Instant;
 
-use fri::session::{Arrival, Session, SessionConfig};
+use fri::endpoint::Responder;
+use fri::session::SessionConfig;
 use fri::wire::{CMD_LEN, MSR_LEN, Measurement};
 
 use super::build_monitor;
@@ -17,8 +19,7 @@ use crate::motion::MotionLimits;
 /// A session plus processor fed with a recorded measurement whose sequence counter and torques
 /// change every cycle (so nothing is rejected as a duplicate or flagged as stale).
 pub struct Replay {
-    session: Session,
-    processor: CycleProcessor,
+    responder: Responder<CycleProcessor>,
     template: Measurement,
     seq: u16,
     source: SocketAddr,
@@ -61,8 +62,7 @@ impl Replay {
             event_tx,
         );
         Ok(Self {
-            session: Session::new(SessionConfig::default()),
-            processor,
+            responder: Responder::new(SessionConfig::default(), processor),
             template: measurement,
             seq: measurement.header.send_seq_count,
             source: SocketAddr::from(([127, 0, 0, 1], 49939)),
@@ -87,26 +87,9 @@ impl Replay {
     /// Returns false when the datagram was rejected or no reply was produced.
     pub fn cycle(&mut self) -> bool {
         let now = Instant::now();
-        if self
-            .session
-            .receive(&self.datagram, self.source, now)
-            .is_err()
-        {
-            return false;
-        }
-        let Some(m) = self.session.last_measurement().copied() else {
-            return false;
-        };
-        let (desired, request) = self.processor.on_measurement(
-            &m,
-            self.session.last_arrival().unwrap_or(Arrival::First),
-            self.session.handshake_status(),
-            self.session.current_request(),
-        );
-        if let Some((kind, strategy)) = request {
-            self.session.request(kind, strategy);
-        }
-        self.session.respond(&desired, now, &mut self.reply).is_ok()
+        self.responder
+            .cycle(&self.datagram, self.source, now, &mut self.reply)
+            .is_ok()
     }
 
     /// Empties the event queue (the fan-out thread's job in the service).

@@ -10,7 +10,7 @@ use std::time::Duration;
 
 use anyhow::Context;
 use clap::Parser;
-use fri::endpoint::{CycleOutput, Endpoint, EndpointConfig, RealtimeConfig, SocketConfig};
+use fri::endpoint::{Cycle, CycleOutput, Endpoint, EndpointConfig, RealtimeConfig, SocketConfig};
 use fri::state::RobotState;
 use serde_json::json;
 
@@ -119,10 +119,10 @@ fn run(args: &Args) -> Result<(), Failure> {
     let (samples, printed) = sync_channel::<RobotState>(16);
     let every = args.every;
     let mut answered = 0u64;
-    let hook = move |state: &RobotState, _: &mut CycleOutput| {
+    let hook = move |cycle: &Cycle<'_>, _: &mut CycleOutput| {
         answered += 1;
         if answered.is_multiple_of(every) {
-            let _ = samples.try_send(*state);
+            let _ = samples.try_send(*cycle.state);
         }
     };
     let endpoint = Endpoint::spawn(config, hook)

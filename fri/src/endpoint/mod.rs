@@ -3,15 +3,18 @@
 //! The thread blocks in `recv_from` with a timeout, drains any datagrams queued behind the first
 //! one (all go through the session for counting; only the newest is answered), runs the
 //! application's [`CycleHook`] synchronously (libfranka style), encodes the limited reply and
-//! sends it to the measurement's source. Non-real-time code talks to it through a lock-free
+//! sends it to the measurement's source. Everything between the socket calls is the sans-IO
+//! [`Responder`], which tests and benchmarks drive directly. Non-real-time code talks to it through a lock-free
 //! latest-state snapshot ([`Endpoint::latest`]) and a bounded command queue
 //! ([`Endpoint::try_send`]); the thread never takes a lock shared with other threads and never
 //! allocates in the loop.
 
+mod cycle;
 mod realtime;
 mod socket;
 mod triple_buffer;
 
+pub use cycle::{Cycle, CycleHook, CycleOutput, Responder, monitor_hook};
 pub use realtime::{RealtimeConfig, RealtimeReport};
 pub use socket::SocketConfig;
 pub use triple_buffer::{Reader, Writer, triple_buffer};
@@ -23,8 +26,8 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Instant;
 
-use crate::handshake::{HandshakeStatus, KrlStrategy, RequestKind};
-use crate::session::{DesiredCommand, Session, SessionConfig};
+use crate::handshake::{KrlStrategy, RequestKind};
+use crate::session::{DesiredCommand, SessionConfig};
 use crate::state::RobotState;
 use crate::wire::CMD_LEN;
 
@@ -66,36 +69,6 @@ pub enum EndpointMessage {
     SetDesired(DesiredCommand),
     /// Send a new handshake request (new id).
     Request(RequestKind, KrlStrategy),
-}
-
-/// What the hook may change each cycle.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CycleOutput {
-    /// The desired command; it persists from cycle to cycle.
-    pub desired: DesiredCommand,
-    /// A new handshake request to send from this cycle on.
-    pub request: Option<(RequestKind, KrlStrategy)>,
-}
-
-/// Per-cycle callback run inside the real-time loop after a measurement was accepted and
-/// before the reply is built. It must not block or allocate.
-pub trait CycleHook: Send + 'static {
-    /// Looks at the state and adjusts the output.
-    fn on_cycle(&mut self, state: &RobotState, output: &mut CycleOutput);
-}
-
-impl<F> CycleHook for F
-where
-    F: FnMut(&RobotState, &mut CycleOutput) + Send + 'static,
-{
-    fn on_cycle(&mut self, state: &RobotState, output: &mut CycleOutput) {
-        self(state, output)
-    }
-}
-
-/// A hook that changes nothing: the endpoint answers in monitor mode (mirroring) or holds.
-pub fn monitor_hook() -> impl CycleHook {
-    |_: &RobotState, _: &mut CycleOutput| {}
 }
 
 /// Errors of the endpoint.
@@ -146,16 +119,10 @@ impl Endpoint {
         let stop = Arc::new(AtomicBool::new(false));
         let mut rt = Loop {
             socket: sock,
-            session: Session::new(config.session),
+            responder: Responder::new(config.session, hook),
             writer,
             queue,
             stop: Arc::clone(&stop),
-            hook,
-            state: RobotState::default(),
-            output: CycleOutput {
-                desired: DesiredCommand::default(),
-                request: None,
-            },
         };
         let realtime = config.realtime;
         let thread = std::thread::Builder::new()
@@ -227,16 +194,13 @@ impl Drop for Endpoint {
     }
 }
 
-/// State owned by the real-time thread.
+/// State owned by the real-time thread: the socket and queues around the sans-IO responder.
 struct Loop<H> {
     socket: socket2::Socket,
-    session: Session,
+    responder: Responder<H>,
     writer: Writer<RobotState>,
     queue: Receiver<EndpointMessage>,
     stop: Arc<AtomicBool>,
-    hook: H,
-    state: RobotState,
-    output: CycleOutput,
 }
 
 impl<H: CycleHook> Loop<H> {
@@ -247,28 +211,31 @@ impl<H: CycleHook> Loop<H> {
             let (len, source) = match socket::receive(&self.socket, &mut rx, true) {
                 Ok(Some(got)) => got,
                 Ok(None) => {
-                    self.state.endpoint.receive_timeouts += 1;
-                    self.writer.publish(&self.state);
+                    self.responder.counters_mut().receive_timeouts += 1;
+                    self.writer.publish(self.responder.state());
                     continue;
                 }
                 Err(e) => {
-                    self.state.endpoint.receive_errors += 1;
+                    self.responder.counters_mut().receive_errors += 1;
                     tracing::debug!(error = %e, "FRI receive failed");
                     continue;
                 }
             };
             let now = Instant::now();
-            let mut accepted = self.feed(&rx[..len], source, now);
+            let mut accepted = self.responder.receive(&rx[..len], source, now).is_ok();
             // Drain datagrams queued behind this one; the newest accepted is answered.
             loop {
                 match socket::receive(&self.socket, &mut rx, false) {
                     Ok(Some((len, source))) => {
-                        self.state.endpoint.stale_drained += 1;
-                        accepted |= self.feed(&rx[..len], source, Instant::now());
+                        self.responder.counters_mut().stale_drained += 1;
+                        accepted |= self
+                            .responder
+                            .receive(&rx[..len], source, Instant::now())
+                            .is_ok();
                     }
                     Ok(None) => break,
                     Err(e) => {
-                        self.state.endpoint.receive_errors += 1;
+                        self.responder.counters_mut().receive_errors += 1;
                         tracing::debug!(error = %e, "FRI receive failed while draining");
                         break;
                     }
@@ -277,66 +244,24 @@ impl<H: CycleHook> Loop<H> {
             if accepted {
                 self.answer(&mut tx);
             } else {
-                self.refresh_state();
+                self.responder.refresh_state();
             }
-            self.writer.publish(&self.state);
+            self.writer.publish(self.responder.state());
         }
         tracing::info!("FRI endpoint stopped");
     }
 
-    /// Passes one datagram to the session; true when accepted.
-    fn feed(&mut self, datagram: &[u8], source: SocketAddr, now: Instant) -> bool {
-        match self.session.receive(datagram, source, now) {
-            Ok(_) => true,
-            Err(rejection) => {
-                tracing::debug!(%rejection, %source, "FRI datagram rejected");
-                false
-            }
-        }
-    }
-
-    /// Runs the queue and the hook, builds, encodes and sends the reply.
+    /// Runs the queue and the responder (hook, reply), and sends the reply.
     fn answer(&mut self, tx: &mut [u8; CMD_LEN]) {
         // Empty or disconnected both end the drain; a dropped sender is not an error here.
         while let Ok(message) = self.queue.try_recv() {
-            self.state.endpoint.queue_messages += 1;
-            match message {
-                EndpointMessage::SetDesired(d) => self.output.desired = d,
-                EndpointMessage::Request(kind, strategy) => {
-                    self.session.request(kind, strategy);
-                }
+            self.responder.apply(message);
+        }
+        if let Ok(info) = self.responder.respond(tx, Instant::now) {
+            let sent = socket::send(&self.socket, tx, info.destination);
+            if !matches!(sent, Ok(n) if n == CMD_LEN) {
+                self.responder.counters_mut().send_errors += 1;
             }
         }
-        self.refresh_state();
-        self.output.request = None;
-        self.hook.on_cycle(&self.state, &mut self.output);
-        if let Some((kind, strategy)) = self.output.request.take() {
-            self.session.request(kind, strategy);
-        }
-        let now = Instant::now();
-        match self.session.respond(&self.output.desired, now, tx) {
-            Ok(info) => {
-                let sent = socket::send(&self.socket, tx, info.destination);
-                if !matches!(sent, Ok(n) if n == CMD_LEN) {
-                    self.state.endpoint.send_errors += 1;
-                }
-            }
-            Err(e) => tracing::debug!(error = %e, "no FRI reply"),
-        }
-        self.state.cycle += 1;
-        self.refresh_state();
-    }
-
-    fn refresh_state(&mut self) {
-        let s = &mut self.state;
-        if let Some(m) = self.session.last_measurement() {
-            s.valid = true;
-            s.measurement = *m;
-            s.handshake = HandshakeStatus::read_from_measurement(m);
-        }
-        s.arrival = self.session.last_arrival();
-        s.last_reply = *self.session.last_reply();
-        s.request = self.session.current_request();
-        s.statistics = self.session.statistics();
     }
 }

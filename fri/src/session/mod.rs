@@ -1,10 +1,27 @@
 //! Sans-IO FRI session (after quinn-proto): datagrams and time in, reply datagrams out.
 //!
 //! Each cycle: [`Session::receive`] validates a measurement datagram (source, length, header,
-//! finiteness, enum values, sequence number), updates counters and keeps it as the last good
-//! measurement; the application looks at it (and at [`Session::last_arrival`]) and fills a
+//! finiteness, enum values, sequence number), updates counters, keeps it as the last good
+//! measurement and returns it with the session's [`Verdict`] (sequence verdict, elapsed
+//! controller time, commanding); the application looks at it, polls the events, and fills a
 //! [`DesiredCommand`]; [`Session::respond`] turns that into a command the controller accepts
 //! and encodes it.
+//!
+//! Call contract (quinn-proto style; nothing here reads a clock or blocks):
+//! - feed every received datagram to [`Session::receive`] with its source and receive time,
+//!   even stale ones queued behind a newer one (they are counted, and their events raised);
+//! - after receiving, call [`Session::poll_event`] until it returns `None`: each accepted
+//!   measurement raises at most one each of restart / re-bind, command mode left, command mode
+//!   entered and request acknowledged ([`SessionEvent`]), in that order; events wait in a queue
+//!   of [`EVENT_CAPACITY`] and the oldest is dropped (counted) if nobody polls;
+//! - take elapsed time and epoch starts from the [`Verdict`] (or [`Session::verdict`]), never
+//!   from `sendSeqCount` or the host clock: it folds in measurements that were accepted but
+//!   superseded before they were answered, and it is relative to the previous *answered* one;
+//! - take "the controller applies our commands" from [`Verdict::commanding`] /
+//!   [`Session::is_commanding`], and command-mode transitions from the events, instead of
+//!   re-deriving them from the interface state;
+//! - answer the newest accepted measurement at most once with [`Session::respond`]; a new
+//!   handshake request ([`Session::request`]) takes effect in the next reply.
 //!
 //! The session is bound to one controller source (address and port): the configured one, or
 //! else the first valid source. Datagrams from any other source are rejected and never
@@ -30,7 +47,7 @@
 //!
 //! ```
 //! use std::time::Instant;
-//! use fri::session::{DesiredCommand, Session, SessionConfig};
+//! use fri::session::{Arrival, DesiredCommand, Session, SessionConfig};
 //! use fri::wire::{CMD_LEN, CommandPacket, InterfaceState, MSR_LEN, Measurement, Quality};
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! // A monitor-mode measurement as the controller would send it.
@@ -45,7 +62,10 @@
 //!
 //! let mut session = Session::new(SessionConfig::default());
 //! let controller = "192.168.0.20:49938".parse()?;
-//! session.receive(&datagram, controller, Instant::now())?;
+//! let accepted = session.receive(&datagram, controller, Instant::now())?;
+//! assert_eq!(accepted.verdict.arrival, Arrival::First);
+//! assert!(!accepted.verdict.commanding);
+//! assert_eq!(session.poll_event(), None); // monitor mode: nothing changed
 //! let mut reply = [0u8; CMD_LEN];
 //! let info = session.respond(&DesiredCommand::default(), Instant::now(), &mut reply)?;
 //! assert_eq!(info.refl_seq_count, 7);
@@ -56,6 +76,7 @@
 //! ```
 
 mod config;
+mod events;
 mod peer;
 mod sequence;
 mod shaping;
@@ -65,7 +86,8 @@ pub use config::{
     DEFAULT_JOINT_DAMPING, DEFAULT_JOINT_STIFFNESS, DEFAULT_MAX_ADDED_TORQUE_STEP,
     DEFAULT_MAX_JOINT_STEP, DEFAULT_MAX_JOINT_STIFFNESS, DesiredCommand, SessionConfig,
 };
-pub use sequence::{Arrival, SequenceCounters};
+pub use events::{CommandModeExit, EVENT_CAPACITY, SessionEvent};
+pub use sequence::{Arrival, MAX_CYCLE, NOMINAL_CYCLE, SequenceCounters, Verdict};
 pub use stats::{
     LimitCounters, RejectionCounters, SessionStatistics, TIMING_WINDOW, TimingStatistics,
     WindowFigures,
@@ -78,6 +100,7 @@ use crate::handshake::{HandshakeRequest, HandshakeStatus, KrlStrategy, RequestKi
 use crate::wire::{
     CMD_LEN, Command, CommandFlags, InterfaceState, Measurement, Quality, WireError,
 };
+use events::EventQueue;
 use peer::{Admission, Peer};
 use sequence::{Refusal, SequenceTracker};
 use shaping::build;
@@ -133,6 +156,16 @@ pub enum ReplyError {
     /// A value taken from the controller does not fit an f32 (counted in `encode_failures`).
     #[error("reply could not be encoded: {0}")]
     Encode(WireError),
+}
+
+/// A measurement [`Session::receive`] accepted, with the session's verdict on it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Accepted<'a> {
+    /// The validated measurement (also [`Session::last_measurement`] until the next one).
+    pub measurement: &'a Measurement,
+    /// Sequence verdict, elapsed controller time and commanding, relative to the previous
+    /// answered measurement (also [`Session::verdict`]).
+    pub verdict: Verdict,
 }
 
 /// What a reply contained, for the application's bookkeeping.
@@ -194,6 +227,12 @@ pub struct Session {
     selected_strategy: KrlStrategy,
     /// Handshake request written into every reply.
     request: HandshakeRequest,
+    /// Whether the newest accepted measurement showed the controller commanding.
+    commanding: bool,
+    /// Id of the last request reported as acknowledged (0: none).
+    acknowledged_reported: i32,
+    /// Events not yet polled.
+    events: EventQueue,
 }
 
 impl Session {
@@ -221,6 +260,9 @@ impl Session {
             have_reply: false,
             frozen_flags: None,
             request: HandshakeRequest::NONE,
+            commanding: false,
+            acknowledged_reported: 0,
+            events: EventQueue::default(),
         }
     }
 
@@ -229,14 +271,15 @@ impl Session {
         &self.config
     }
 
-    /// Validates a received datagram and, when accepted, keeps it as the last good measurement.
-    /// Never panics; every rejection is counted by reason and leaves the last good state alone.
+    /// Validates a received datagram and, when accepted, keeps it as the last good measurement
+    /// and queues the events it raises ([`Session::poll_event`]). Never panics; every rejection
+    /// is counted by reason and leaves the last good state and the events alone.
     pub fn receive(
         &mut self,
         datagram: &[u8],
         source: SocketAddr,
         now: Instant,
-    ) -> Result<&Measurement, Rejection> {
+    ) -> Result<Accepted<'_>, Rejection> {
         self.stats.datagrams_received += 1;
         match self.validate(datagram, source, now) {
             Ok((msr, arrival)) => Ok(self.accept(msr, arrival, source, now)),
@@ -291,7 +334,7 @@ impl Session {
         arrival: Arrival,
         source: SocketAddr,
         now: Instant,
-    ) -> &Measurement {
+    ) -> Accepted<'_> {
         let s = &mut self.stats;
         s.measurements_accepted += 1;
         match arrival {
@@ -323,6 +366,7 @@ impl Session {
             self.arrival_jitter
                 .push((period - msr.interface.desired_msr_sample_time).abs());
         }
+        self.raise_events(&msr, arrival, source);
         self.sequence.accept(msr.header.send_seq_count, now);
         self.peer.bind(source);
         // The application sees only answered measurements: fold an unanswered one in.
@@ -332,8 +376,97 @@ impl Session {
         });
         self.arrival_answered = false;
         self.awaiting_reply = true;
+        let folded = self.arrival.unwrap_or(arrival);
         let (stored, _, _) = self.last_good.insert((msr, source, now));
-        stored
+        Accepted {
+            verdict: Verdict::new(stored, folded),
+            measurement: stored,
+        }
+    }
+
+    /// Queues what `msr` changes against the previous accepted measurement (called before the
+    /// sequence and peer state take it in, so the previous source is still known).
+    fn raise_events(&mut self, msr: &Measurement, arrival: Arrival, source: SocketAddr) {
+        let epoch_exit = match arrival {
+            Arrival::Restart => {
+                self.push_event(SessionEvent::ControllerRestarted);
+                Some(CommandModeExit::ControllerRestarted)
+            }
+            Arrival::Rebind => {
+                self.push_event(SessionEvent::ControllerRebound {
+                    previous: self.peer.bound().unwrap_or(source),
+                    current: source,
+                });
+                Some(CommandModeExit::ControllerRebound)
+            }
+            Arrival::First | Arrival::Continued { .. } => None,
+        };
+        // A new epoch ends command mode as we knew it, even if the new controller commands.
+        if let Some(reason) = epoch_exit
+            && self.commanding
+        {
+            self.commanding = false;
+            self.push_event(SessionEvent::CommandModeLeft { reason });
+        }
+        let commanding = Self::commanding(msr);
+        if commanding && !self.commanding {
+            self.push_event(SessionEvent::CommandModeEntered {
+                control: msr.robot.control,
+            });
+        } else if !commanding && self.commanding {
+            let reason = self.exit_reason(msr);
+            self.push_event(SessionEvent::CommandModeLeft { reason });
+        }
+        self.commanding = commanding;
+        let id = self.request.id;
+        if id != 0
+            && self.acknowledged_reported != id
+            && HandshakeStatus::read_from_measurement(msr).has_acknowledged(id)
+        {
+            self.acknowledged_reported = id;
+            self.push_event(SessionEvent::RequestAcknowledged {
+                request: self.request,
+            });
+        }
+    }
+
+    /// Why the controller no longer commands in `msr` (it did in the previous measurement).
+    fn exit_reason(&self, msr: &Measurement) -> CommandModeExit {
+        if msr.interface.state == InterfaceState::Command {
+            // Still CMD: only the drive power went.
+            CommandModeExit::DrivesOff
+        } else if matches!(
+            self.request.kind,
+            RequestKind::StopCommandMode | RequestKind::Close
+        ) {
+            CommandModeExit::Requested
+        } else if !matches!(msr.interface.quality, Quality::Ok | Quality::Perfect) {
+            CommandModeExit::QualityDropped {
+                quality: msr.interface.quality,
+            }
+        } else {
+            CommandModeExit::Controller {
+                reason: HandshakeStatus::read_from_measurement(msr).drop_reason,
+            }
+        }
+    }
+
+    fn push_event(&mut self, event: SessionEvent) {
+        if !self.events.push(event) {
+            self.stats.events_dropped += 1;
+        }
+    }
+
+    /// The oldest event not yet polled (quinn-proto style: call until `None` after each
+    /// [`Session::receive`]; events wait in a queue of [`EVENT_CAPACITY`], the oldest dropped
+    /// and counted in `SessionStatistics::events_dropped` when it overflows).
+    pub fn poll_event(&mut self) -> Option<SessionEvent> {
+        self.events.pop()
+    }
+
+    /// The events not yet polled, oldest first (polling removes them).
+    pub fn pending_events(&self) -> &[SessionEvent] {
+        self.events.pending()
     }
 
     fn count_rejection(&mut self, r: &Rejection) {
@@ -436,7 +569,13 @@ impl Session {
 
     /// True when the controller applies our commands: state CMD and a drive powered.
     fn commanding(msr: &Measurement) -> bool {
-        msr.interface.state == InterfaceState::Command && msr.drives_powered()
+        sequence::commanding(msr)
+    }
+
+    /// True when the newest accepted measurement shows the controller applying our commands
+    /// (state CMD and a drive powered); false before the first.
+    pub fn is_commanding(&self) -> bool {
+        self.commanding
     }
 
     /// Writes a new handshake request (new id) into every following reply. A start also
@@ -477,6 +616,11 @@ impl Session {
         self.selected_strategy
     }
 
+    /// True while the newest accepted measurement has not been answered by [`Session::respond`].
+    pub fn awaiting_reply(&self) -> bool {
+        self.awaiting_reply
+    }
+
     /// The newest accepted measurement.
     pub fn last_measurement(&self) -> Option<&Measurement> {
         self.last_good.as_ref().map(|(m, _, _)| m)
@@ -487,6 +631,14 @@ impl Session {
     /// an epoch. Rejected datagrams leave it alone.
     pub fn last_arrival(&self) -> Option<Arrival> {
         self.arrival
+    }
+
+    /// The verdict on the newest accepted measurement (`None` before the first): its
+    /// [`Session::last_arrival`], the controller time elapsed since the previous answered
+    /// measurement and whether the controller commands. What [`Session::receive`] returned.
+    pub fn verdict(&self) -> Option<Verdict> {
+        let (msr, _, _) = self.last_good.as_ref()?;
+        Some(Verdict::new(msr, self.arrival?))
     }
 
     /// The controller source the session is bound to (`None` before the first accepted

@@ -1,5 +1,5 @@
 //! Tracking of the controller's `sendSeqCount` (u16, wrapping) and the public verdict on each
-//! accepted measurement ([`Arrival`]).
+//! accepted measurement ([`Arrival`], [`Verdict`]).
 //!
 //! The restart rule: a sequence number that is neither next, a small gap ahead, a duplicate nor
 //! a small step back is only taken as a controller restart after the controller has been silent
@@ -12,6 +12,15 @@
 use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
+
+use crate::wire::{InterfaceState, Measurement};
+
+/// Controller cycle assumed when a measurement's `desiredMsrSampleTime` is not a usable cycle
+/// time (0, negative or above [`MAX_CYCLE`]): FRI's default cycle, 1 ms.
+pub const NOMINAL_CYCLE: Duration = Duration::from_millis(1);
+/// Longest controller cycle taken from `desiredMsrSampleTime` as it is: FRI 1.x allows
+/// 1…100 ms, so anything above 1 s is a corrupt value, not a cycle time.
+pub const MAX_CYCLE: Duration = Duration::from_secs(1);
 
 /// Counters of the controller's sequence numbers as seen by us.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -90,6 +99,56 @@ impl Arrival {
             },
         }
     }
+}
+
+/// The session's verdict on one accepted measurement, relative to the previous measurement the
+/// application answered: what the application needs to integrate, differentiate and decide
+/// whether its commands take effect, without recomputing any of it from the raw fields.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Verdict {
+    /// Where the measurement sits in the controller's sequence (cycles elapsed or epoch start).
+    pub arrival: Arrival,
+    /// Controller time since the previous answered measurement: elapsed cycles times the
+    /// controller's cycle (`desiredMsrSampleTime`, else [`NOMINAL_CYCLE`]); zero when the
+    /// measurement starts an epoch (as libfranka's first callback gets a zero duration).
+    pub elapsed: Duration,
+    /// True when the controller applies our commands: state CMD and a drive powered. Outside
+    /// it the session mirrors the set-point whatever the application asks.
+    pub commanding: bool,
+}
+
+impl Verdict {
+    /// The verdict on `msr` given its sequence verdict, with the session's own rules for
+    /// elapsed time and commanding (public so stand-ins of a session agree with it).
+    pub fn new(msr: &Measurement, arrival: Arrival) -> Self {
+        let elapsed = arrival.elapsed_cycles().map_or(Duration::ZERO, |cycles| {
+            controller_cycle(msr).saturating_mul(cycles)
+        });
+        Self {
+            arrival,
+            elapsed,
+            commanding: commanding(msr),
+        }
+    }
+
+    /// Controller cycles since the previous answered measurement; `None` at an epoch start.
+    pub fn elapsed_cycles(&self) -> Option<u32> {
+        self.arrival.elapsed_cycles()
+    }
+}
+
+/// True when the controller applies our commands: state CMD and a drive powered.
+pub(crate) fn commanding(msr: &Measurement) -> bool {
+    msr.interface.state == InterfaceState::Command && msr.drives_powered()
+}
+
+/// The controller's cycle as it reports it, or [`NOMINAL_CYCLE`] when the value is unusable
+/// (the field comes off the wire: it must never panic a conversion or make time stand still).
+fn controller_cycle(msr: &Measurement) -> Duration {
+    Duration::try_from_secs_f64(msr.interface.desired_msr_sample_time)
+        .ok()
+        .filter(|d| !d.is_zero() && *d <= MAX_CYCLE)
+        .unwrap_or(NOMINAL_CYCLE)
 }
 
 /// Why a sequence number of the bound controller is refused.
@@ -221,6 +280,30 @@ mod tests {
         let s = tracker_at(1, t);
         assert!(!s.silent(t + r, r));
         assert!(s.silent(t + r + Duration::from_nanos(1), r));
+    }
+
+    #[test]
+    fn verdict_takes_elapsed_time_from_the_counter_and_the_controllers_cycle() {
+        let mut m = Measurement::default();
+        m.interface.desired_msr_sample_time = 0.002;
+        let v = Verdict::new(&m, Arrival::Continued { cycles: 3 });
+        assert_eq!(v.elapsed, Duration::from_millis(6));
+        assert_eq!(v.elapsed_cycles(), Some(3));
+        assert!(!v.commanding);
+        // Epoch starts have no elapsed time; unusable cycle times fall back to 1 ms.
+        assert_eq!(Verdict::new(&m, Arrival::Restart).elapsed, Duration::ZERO);
+        for bad in [0.0, -0.001, 2.0] {
+            m.interface.desired_msr_sample_time = bad;
+            let v = Verdict::new(&m, Arrival::Continued { cycles: 2 });
+            assert_eq!(v.elapsed, Duration::from_millis(2), "cycle time {bad}");
+        }
+        m.interface.state = InterfaceState::Command;
+        assert!(
+            !Verdict::new(&m, Arrival::First).commanding,
+            "no drive powered"
+        );
+        m.robot.power = 0x01;
+        assert!(Verdict::new(&m, Arrival::First).commanding);
     }
 
     #[test]

@@ -118,6 +118,9 @@ pub struct SessionStatistics {
     pub limits: LimitCounters,
     /// Our own timing figures.
     pub timing: TimingStatistics,
+    /// Session events dropped because nobody polled them before the queue filled.
+    #[serde(default)]
+    pub events_dropped: u64,
 }
 
 /// Fixed-size ring of samples with a running sum (no allocation).

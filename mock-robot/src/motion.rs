@@ -7,6 +7,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use trajectory::{QuinticSegment, quintic, rest_to_rest_duration};
+
 use crate::config::JOINTS;
 use crate::error::{SimError, ensure};
 use crate::sensors::JointVector;
@@ -170,26 +172,13 @@ fn last_peak_time(f0: f64, f1: f64, duration: f64) -> f64 {
     }
 }
 
-/// Quintic min-jerk profile s(τ) and its first two derivatives for τ in [0, 1].
-fn quintic(tau: f64) -> (f64, f64, f64) {
-    let t = tau.clamp(0.0, 1.0);
-    let (t2, t3) = (t * t, t * t * t);
-    (
-        10.0 * t3 - 15.0 * t3 * t + 6.0 * t3 * t2,
-        30.0 * t2 - 60.0 * t3 + 30.0 * t2 * t2,
-        60.0 * t - 180.0 * t2 + 120.0 * t3,
-    )
-}
-
 /// Move time of a synchronous quintic PTP from `from` to `to` at `speed_fraction` of the limits
 /// (peak acceleration limited to 2 s⁻¹ × velocity limit), s.
 pub fn ptp_duration(from: &JointVector, to: &JointVector, speed_fraction: f64) -> f64 {
     let mut t: f64 = 0.2;
     for i in 0..JOINTS {
-        let d = (to[i] - from[i]).abs();
         let v = VELOCITY_LIMITS_RAD_S[i] * speed_fraction;
-        let a = 2.0 * VELOCITY_LIMITS_RAD_S[i] * speed_fraction;
-        t = t.max(1.875 * d / v).max((5.7735 * d / a).sqrt());
+        t = t.max(rest_to_rest_duration((to[i] - from[i]).abs(), v, 2.0 * v));
     }
     t
 }
@@ -252,12 +241,16 @@ impl Primitive {
     fn sample(&self, t: f64) -> SetPoint {
         match self {
             Self::Move { from, to, duration } => {
-                let (s, ds, dds) = quintic(t / duration);
-                let delta = to - from;
+                let sp = QuinticSegment {
+                    from: *from,
+                    to: *to,
+                    duration: *duration,
+                }
+                .sample(t);
                 SetPoint {
-                    q: from + delta * s,
-                    qd: delta * (ds / duration),
-                    qdd: delta * (dds / (duration * duration)),
+                    q: sp.position,
+                    qd: sp.velocity,
+                    qdd: sp.acceleration,
                 }
             }
             Self::Hold { q, .. } => SetPoint::rest(*q),

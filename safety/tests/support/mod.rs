@@ -12,6 +12,7 @@ use nalgebra::{Matrix3, SVector, Vector3};
 use rand::Rng;
 use rand::rngs::StdRng;
 use rand_distr::{Distribution, Normal};
+use trajectory::{QuinticSegment, rest_to_rest_duration};
 
 pub type V7 = SVector<f64, 7>;
 
@@ -150,8 +151,8 @@ impl Trajectory for Hold {
 
 /// Rest-to-rest quintic segments through waypoints, with optional dwell at each waypoint.
 pub struct Quintic {
-    /// (start time, duration, from, to)
-    segments: Vec<(f64, f64, V7, V7)>,
+    /// (start time s, segment)
+    segments: Vec<(f64, QuinticSegment<7>)>,
     end: f64,
     last: V7,
 }
@@ -164,11 +165,15 @@ impl Quintic {
         let mut t = dwell;
         for w in waypoints.windows(2) {
             let delta = (w[1] - w[0]).abs().max();
-            // Quintic peak velocity 1.875Δ/T, peak acceleration 5.7735Δ/T².
-            let duration = (1.875 * delta / v_max)
-                .max((5.7735 * delta / a_max).sqrt())
-                .max(0.05);
-            segments.push((t, duration, w[0], w[1]));
+            let duration = rest_to_rest_duration(delta, v_max, a_max).max(0.05);
+            segments.push((
+                t,
+                QuinticSegment {
+                    from: w[0],
+                    to: w[1],
+                    duration,
+                },
+            ));
             t += duration + dwell;
         }
         let last = *waypoints.last().unwrap();
@@ -185,22 +190,17 @@ impl Quintic {
 
 impl Trajectory for Quintic {
     fn sample(&self, t: f64) -> (V7, V7, V7) {
-        let first = self.segments.first().map(|s| s.2).unwrap_or(self.last);
+        let first = self.segments.first().map(|s| s.1.from).unwrap_or(self.last);
         let mut hold = first;
-        for &(start, dur, from, to) in &self.segments {
-            if t < start {
+        for (start, segment) in &self.segments {
+            if t < *start {
                 return (hold, V7::zeros(), V7::zeros());
             }
-            if t <= start + dur {
-                let s = (t - start) / dur;
-                let (s2, s3) = (s * s, s * s * s);
-                let pos = 10.0 * s3 - 15.0 * s3 * s + 6.0 * s3 * s2;
-                let vel = (30.0 * s2 - 60.0 * s3 + 30.0 * s2 * s2) / dur;
-                let acc = (60.0 * s - 180.0 * s2 + 120.0 * s3) / (dur * dur);
-                let d = to - from;
-                return (from + d * pos, d * vel, d * acc);
+            if t <= start + segment.duration {
+                let sp = segment.sample(t - start);
+                return (sp.position, sp.velocity, sp.acceleration);
             }
-            hold = to;
+            hold = segment.to;
         }
         (self.last, V7::zeros(), V7::zeros())
     }

@@ -472,7 +472,7 @@ impl ServiceCore {
             .await?;
         let tare = Tare {
             around,
-            samples: samples.iter().map(|s| s.sample.clone()).collect(),
+            samples: samples.iter().map(|s| s.sample).collect(),
         };
         self.store
             .save_tare(Some(&tare))
@@ -505,7 +505,7 @@ impl ServiceCore {
                 json!({"phase": "estimating", "workflow": "estimate"}),
             )
             .await;
-        let loaded: Vec<StaticSample> = samples.iter().map(|s| s.sample.clone()).collect();
+        let loaded: Vec<StaticSample> = samples.iter().map(|s| s.sample).collect();
         let tare_matches = tare.as_ref().is_some_and(|t| {
             t.samples.len() == loaded.len()
                 && t.samples
@@ -624,15 +624,13 @@ impl ServiceCore {
                         )
                         .await;
                 }
-                let mut text = String::new();
-                text.push_str(&static_csv_header());
-                for r in &rows {
-                    text.push_str(&static_csv_row(r));
-                }
+                let mut text = Vec::new();
+                estimator::samples::write_csv(&mut text, &rows)
+                    .map_err(|e| err(ErrorCode::Failed, e.to_string()))?;
                 // Created only now, exclusively: the name may have been taken while sampling.
                 let (mut file, _) = dir.create(path).map_err(refuse)?;
                 use std::io::Write;
-                file.write_all(text.as_bytes()).map_err(io)?;
+                file.write_all(&text).map_err(io)?;
                 Ok(json!({"rows": rows.len(), "path": shown}))
             }
             RecordKind::Log => {
@@ -698,13 +696,8 @@ pub fn estimate(
     loaded: &[StaticSample],
     tare: Option<&Tare>,
 ) -> Result<estimator::estimate::PayloadEstimate, OperatorError> {
-    let to_est = |s: &StaticSample, reference: &[f64; 7]| {
-        estimator::samples::StaticSample::new(
-            SVector::from(s.q),
-            SVector::from(s.tau),
-            SVector::from(*reference),
-        )
-    };
+    let to_est =
+        |s: &StaticSample, reference: &SVector<f64, 7>| StaticSample::new(s.q, s.tau, *reference);
     let samples: Vec<_> = match tare {
         Some(t) => loaded
             .iter()
@@ -731,28 +724,6 @@ fn sample_json(s: &AveragedSample, settle_s: f64) -> Value {
         "velocity_max": s.max_speed, "torque_std": s.torque_std, "drift": s.drift,
         "cycles": s.cycles, "settle_s": settle_s,
     })
-}
-
-/// Header of the static-sample CSV (`q1..q7,tau1..tau7,g1..g7`).
-pub fn static_csv_header() -> String {
-    let mut h = Vec::new();
-    for name in ["q", "tau", "g"] {
-        for j in 1..=7 {
-            h.push(format!("{name}{j}"));
-        }
-    }
-    h.join(",") + "\n"
-}
-
-/// One row of the static-sample CSV.
-pub fn static_csv_row(s: &StaticSample) -> String {
-    let v: Vec<String> =
-        s.q.iter()
-            .chain(&s.tau)
-            .chain(&s.gravity)
-            .map(|x| format!("{x}"))
-            .collect();
-    v.join(",") + "\n"
 }
 
 /// Waits (at most 0.2 s) until a published state shows the arm stopped.

@@ -68,6 +68,6 @@ pub use robot_file::{JointSpec, LimitsSpec, LinkSpec, PoseSpec, RobotFile};
 pub use robots::{
     LWR_BASE_TO_SHOULDER, LWR_FLANGE_OFFSET, LWR4_PICK_POSE_DEG, LWR4_PICK_POSE_RAD,
     LWR4_POSITION_LIMITS_DEG, LWR4_TORQUE_LIMITS_NM, LWR4_VELOCITY_LIMITS_DEG_S, STANDARD_GRAVITY,
-    inertia_tensor, lwr4, lwr4_heavy_payload, lwr4_light_payload, lwr4_limits, lwr4_links,
-    lwr4_modified_dh, planar_2r, planar_2r_payload,
+    degrees_to_radians, inertia_tensor, lwr4, lwr4_heavy_payload, lwr4_light_payload, lwr4_limits,
+    lwr4_links, lwr4_modified_dh, planar_2r, planar_2r_payload,
 };

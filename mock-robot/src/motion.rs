@@ -15,21 +15,11 @@ use crate::sensors::JointVector;
 
 /// Joint velocity limits of the LWR 4+, rad/s (from `dynamics`' lwr4-model.md §1.2 table).
 pub const VELOCITY_LIMITS_RAD_S: [f64; JOINTS] =
-    degrees_to_radians(dynamics::LWR4_VELOCITY_LIMITS_DEG_S);
+    dynamics::degrees_to_radians(dynamics::LWR4_VELOCITY_LIMITS_DEG_S);
 
 /// Joint position limits of the LWR 4+, ± rad (from `dynamics`' lwr4-model.md §1.2 table).
 pub const POSITION_LIMITS_RAD: [f64; JOINTS] =
-    degrees_to_radians(dynamics::LWR4_POSITION_LIMITS_DEG);
-
-const fn degrees_to_radians(degrees: [f64; JOINTS]) -> [f64; JOINTS] {
-    let mut radians = [0.0; JOINTS];
-    let mut i = 0;
-    while i < JOINTS {
-        radians[i] = degrees[i] * std::f64::consts::PI / 180.0;
-        i += 1;
-    }
-    radians
-}
+    dynamics::degrees_to_radians(dynamics::LWR4_POSITION_LIMITS_DEG);
 
 /// Default PTP speed as a fraction of the joint velocity limits.
 pub const DEFAULT_SPEED_FRACTION: f64 = 0.3;

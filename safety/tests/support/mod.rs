@@ -16,32 +16,6 @@ use trajectory::{QuinticSegment, rest_to_rest_duration};
 
 pub type V7 = SVector<f64, 7>;
 
-/// Controller model perturbation of lwr4-model.md §4 (`controller_model_example` of
-/// lwr4-golden.json): per link [dm kg, d(m cx), d(m cy), d(m cz) kg·m], DH frame i.
-pub const CONTROLLER_DP: [[f64; 4]; 7] = [
-    [-0.01213, -0.00186, -0.00294, 0.00344],
-    [-0.03103, 0.00096, -0.00492, -0.00297],
-    [-0.02672, -0.00306, 0.00198, 0.00481],
-    [-0.00606, -0.0006, 0.00048, 0.00061],
-    [0.02036, 0.00019, -0.00506, 0.00266],
-    [-0.04446, 0.00493, -0.0024, -0.00537],
-    [0.01211, 0.00391, 0.00055, 0.00154],
-];
-
-/// Links with a gravity-parameter perturbation dp (rows [dm, d(mc)]) added; the inertia about
-/// the link origin is kept.
-pub fn perturbed_links(
-    links: &[InertialParameters; 7],
-    dp: &[[f64; 4]; 7],
-) -> [InertialParameters; 7] {
-    let mut out = *links;
-    for (l, d) in out.iter_mut().zip(dp.iter()) {
-        l.mass += d[0];
-        l.first_moment += Vector3::new(d[1], d[2], d[3]);
-    }
-    out
-}
-
 /// A Gaussian draw of the §4 perturbation (σ 0.02 kg, 0.005 kg·m) plus a relative scaling of
 /// each link's inertia tensor about its CoM by N(1, `inertia_sigma`²).
 pub fn random_links(

@@ -88,7 +88,8 @@ impl Default for RobotState {
     }
 }
 
-/// A detected collision, published on `<prefix>/collision` at the onset of each detection.
+/// The iceoryx2 message of a detected collision, published on `<prefix>/collision` at the onset of
+/// each detection (its wire type name stays `fri_service::CollisionEvent` for existing subscribers).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[cfg_attr(
     feature = "iceoryx2",
@@ -96,7 +97,7 @@ impl Default for RobotState {
     type_name("fri_service::CollisionEvent")
 )]
 #[repr(C)]
-pub struct CollisionEvent {
+pub struct CollisionMessage {
     /// Cycle of the detection.
     pub cycle: u64,
     /// Time since the service started, s.

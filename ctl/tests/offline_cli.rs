@@ -192,9 +192,17 @@ fn coefficients_reproduce_the_paper() {
     assert!(e.contains("neither a built-in set"), "{e}");
 }
 
+/// The paper's pick pose as an `--around` argument, rad.
+fn pick_pose_arg() -> String {
+    dynamics::LWR4_PICK_POSE_RAD
+        .map(|v| format!("{v:.10}"))
+        .join(",")
+}
+
 #[test]
 fn poses_paper_and_optimised() {
-    let around = "0,0.5235987756,0,-1.0471975512,0,1.0471975512,0";
+    let around = pick_pose_arg();
+    let around = around.as_str();
     let paper = ok_json(&[
         "poses", "--robot", "lwr4", "--around", around, "--count", "10", "--json",
     ]);
@@ -217,7 +225,7 @@ fn poses_paper_and_optimised() {
     assert!(os <= 1.01 * ps, "{os} vs {ps}");
     for q in opt["poses"].as_array().unwrap() {
         let q2 = q[1].as_f64().unwrap();
-        assert!((q2 - std::f64::consts::FRAC_PI_6).abs() <= 3f64.to_radians() + 1e-9);
+        assert!((q2 - dynamics::LWR4_PICK_POSE_RAD[1]).abs() <= 3f64.to_radians() + 1e-9);
     }
     let e = err_text(&["poses", "--around", "0,0.5,0", "--count", "5"]);
     assert!(e.contains("3 values") && e.contains("7 joints"), "{e}");
@@ -225,7 +233,8 @@ fn poses_paper_and_optimised() {
 
 #[test]
 fn poses_reject_out_of_range_numbers() {
-    let around = "0,0.5235987756,0,-1.0471975512,0,1.0471975512,0";
+    let around = pick_pose_arg();
+    let around = around.as_str();
     // usize::MAX poses used to abort on the up-front allocation ("capacity overflow")
     for count in ["18446744073709551615", "1"] {
         for optimize in [false, true] {

@@ -9,7 +9,7 @@ use std::time::Duration;
 
 use clap::Parser;
 use fri_service::ipc::publisher::open_service;
-use fri_service::ipc::{CollisionEvent, IpcNames, PayloadEstimate, RobotState};
+use fri_service::ipc::{CollisionMessage, IpcNames, PayloadEstimate, RobotState};
 
 /// Command-line arguments.
 #[derive(Parser, Debug)]
@@ -38,7 +38,7 @@ fn main() -> anyhow::Result<()> {
     let state = open_service::<RobotState>(&node, &names.state(), 1)?
         .subscriber_builder()
         .create()?;
-    let collision = open_service::<CollisionEvent>(&node, &names.collision(), 16)?
+    let collision = open_service::<CollisionMessage>(&node, &names.collision(), 16)?
         .subscriber_builder()
         .create()?;
     let payload = open_service::<PayloadEstimate>(&node, &names.payload(), 4)?

@@ -51,7 +51,7 @@ pub struct Config {
     /// Robot model used by the observer and the estimator.
     pub robot: RobotConfig,
     /// Collision observer gains and thresholds.
-    pub observer: ObserverConfig,
+    pub observer: ObserverSettings,
     /// What the service does when a collision is detected.
     pub reaction: ReactionConfig,
     /// Limits for moves the service commands itself (estimation poses, returns).
@@ -116,10 +116,11 @@ impl Default for RobotConfig {
     }
 }
 
-/// Collision observer (momentum residual, paper eq. 48) settings.
+/// The `[observer]` section: collision observer (momentum residual, paper eq. 48) gains,
+/// thresholds and arming (the service's settings; `safety::ObserverConfig` is the observer's own).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
-pub struct ObserverConfig {
+pub struct ObserverSettings {
     /// Observer gains K_I per joint, 1/s (default `safety::DEFAULT_GAIN` = 400 on every joint).
     pub gains: [f64; JOINTS],
     /// Detection thresholds per joint, Nm (default 6, as in the paper's Fig. 6).
@@ -128,7 +129,7 @@ pub struct ObserverConfig {
     pub armed: bool,
 }
 
-impl Default for ObserverConfig {
+impl Default for ObserverSettings {
     fn default() -> Self {
         Self {
             gains: [safety::DEFAULT_GAIN; JOINTS],
@@ -138,10 +139,11 @@ impl Default for ObserverConfig {
     }
 }
 
-/// Reaction to a detected collision.
+/// `[reaction] policy`: what the service does on a detected collision (mapped onto
+/// `safety::ReactionPolicy` by the service; `report` does not react).
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "kebab-case")]
-pub enum ReactionPolicy {
+pub enum ReactionMode {
     /// Only report the event.
     Report,
     /// Stop (hold position) and wait for the operator's `resume`.
@@ -154,8 +156,8 @@ pub enum ReactionPolicy {
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct ReactionConfig {
-    /// Reaction policy (default `stop`).
-    pub policy: ReactionPolicy,
+    /// Reaction mode (default `stop`).
+    pub policy: ReactionMode,
     /// Pause duration for the `pause` policy, s (default 2).
     pub pause_s: f64,
 }
@@ -163,7 +165,7 @@ pub struct ReactionConfig {
 impl Default for ReactionConfig {
     fn default() -> Self {
         Self {
-            policy: ReactionPolicy::Stop,
+            policy: ReactionMode::Stop,
             pause_s: 2.0,
         }
     }
@@ -602,7 +604,7 @@ mod tests {
         assert_eq!(c.fri.bind, "0.0.0.0:49938".parse().unwrap());
         assert_eq!(c.fri.cycle_s, 0.001);
         assert_eq!(c.observer.thresholds, [6.0; 7]);
-        assert_eq!(c.reaction.policy, ReactionPolicy::Stop);
+        assert_eq!(c.reaction.policy, ReactionMode::Stop);
         assert_eq!(c.estimation.settle_timeout_s, 1.0);
         assert_eq!(c.operator.socket, PathBuf::from(DEFAULT_SOCKET));
         assert_eq!(

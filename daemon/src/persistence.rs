@@ -99,18 +99,10 @@ pub struct AppliedPayload {
     pub com: [f64; 3],
 }
 
-/// One static sample: measured joint positions, measured joint torques and the controller's
-/// gravity vector, all averaged over the sample window.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct StaticSample {
-    /// Joint positions, rad.
-    pub q: [f64; 7],
-    /// Measured joint torques (msrJntTrq), Nm.
-    pub tau: [f64; 7],
-    /// Controller's gravity vector, Nm.
-    pub gravity: [f64; 7],
-}
+/// One static sample of the 7-joint LWR (`estimator`'s type): measured joint positions (rad),
+/// measured joint torques (msrJntTrq, Nm) and the controller's gravity vector (Nm), each averaged
+/// over the sample window; stored as `{"q": [..], "tau": [..], "gravity": [..]}`.
+pub type StaticSample = estimator::samples::StaticSample<7>;
 
 /// Unloaded samples at the estimation poses, subtracted from loaded samples (tare).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -284,11 +276,11 @@ mod tests {
         let store = StateStore::open(&dir.path().join("nested/state")).unwrap();
         let tare = Tare {
             around: [0.1; 7],
-            samples: vec![StaticSample {
-                q: [0.2; 7],
-                tau: [1.5; 7],
-                gravity: [-1.0; 7],
-            }],
+            samples: vec![StaticSample::new(
+                [0.2; 7].into(),
+                [1.5; 7].into(),
+                [-1.0; 7].into(),
+            )],
         };
         store.save_tare(Some(&tare)).unwrap();
         assert_eq!(store.load_tare().unwrap(), Some(tare));

@@ -74,7 +74,7 @@ fn six_pose_tare() -> Command {
 /// `config` armed, reacting with a stop.
 fn armed_to_stop(mut config: Config) -> Config {
     config.observer.armed = true;
-    config.reaction.policy = fri_service::config::ReactionPolicy::Stop;
+    config.reaction.policy = fri_service::config::ReactionMode::Stop;
     config
 }
 
@@ -497,9 +497,9 @@ async fn iceoryx2_subscriber_receives_the_service_state() {
     assert!(received.len() >= 50, "received {}", received.len());
     assert!(received.windows(2).all(|w| w[1].cycle > w[0].cycle));
     let last = received.last().unwrap();
-    // At rest at the mock's initial pose (deg 0, 30, 0, -60, 0, 60, 0).
+    // At rest at the mock's initial pose (the pick pose).
     assert!(
-        (last.q[1] - 30f64.to_radians()).abs() < 0.01,
+        (last.q[1] - dynamics::LWR4_PICK_POSE_RAD[1]).abs() < 0.01,
         "{:?}",
         last.q
     );

@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicU32, Ordering};
 
 use fri_api::ipc::flags;
 use fri_service::ipc::publisher::open_service;
-use fri_service::ipc::{CollisionEvent, IpcNames, PayloadEstimate, Publisher, RobotState};
+use fri_service::ipc::{CollisionMessage, IpcNames, PayloadEstimate, Publisher, RobotState};
 
 #[global_allocator]
 static A: alloc_counter::CountingAllocator = alloc_counter::CountingAllocator;
@@ -60,7 +60,7 @@ fn subscriber_receives_state_events_and_payload_and_cleanup_leaves_nothing() {
             .subscriber_builder()
             .create()
             .unwrap();
-        let coll_sub = open_service::<CollisionEvent>(&node, &names.collision(), 16)
+        let coll_sub = open_service::<CollisionMessage>(&node, &names.collision(), 16)
             .unwrap()
             .subscriber_builder()
             .create()
@@ -103,7 +103,7 @@ fn subscriber_receives_state_events_and_payload_and_cleanup_leaves_nothing() {
             flags::COMMAND_MODE | flags::PAYLOAD_APPLIED
         );
 
-        let ev = CollisionEvent {
+        let ev = CollisionMessage {
             cycle: 8000,
             time_s: 8.0,
             residual: [0.0, 0.0, 0.0, 9.5, 0.0, 7.0, 0.0],

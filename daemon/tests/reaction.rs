@@ -13,7 +13,7 @@ use dynamics::{Data, Model, compute_generalized_gravity, payload_gravity_regress
 use fri::handshake::{HandshakeRequest, HandshakeStatus};
 use fri::session::{Arrival, Verdict};
 use fri::wire::{InterfaceState, Measurement, Quality};
-use fri_service::config::{Config, ReactionPolicy};
+use fri_service::config::{Config, ReactionMode};
 use fri_service::motion::MotionLimits;
 use fri_service::service::build_monitor;
 use fri_service::service::cycle::{CycleEvent, CycleProcessor, CycleRequest, ProcessorSettings};
@@ -25,15 +25,7 @@ use safety::PayloadCompensation;
 type V7 = SVector<f64, 7>;
 
 /// The paper's pick pose, rad.
-const PICK: [f64; 7] = [
-    0.0,
-    std::f64::consts::FRAC_PI_6,
-    0.0,
-    -std::f64::consts::FRAC_PI_3,
-    0.0,
-    std::f64::consts::FRAC_PI_3,
-    0.0,
-];
+const PICK: [f64; 7] = dynamics::LWR4_PICK_POSE_RAD;
 
 /// A real payload at the flange: 3 kg, 0.12 m along z of frame 7.
 const PAYLOAD_KG: f64 = 3.0;
@@ -59,7 +51,7 @@ struct Rig {
 }
 
 impl Rig {
-    fn new(policy: ReactionPolicy, armed: bool) -> Self {
+    fn new(policy: ReactionMode, armed: bool) -> Self {
         let mut config = Config::default();
         config.reaction.policy = policy;
         config.reaction.pause_s = 0.2;
@@ -76,7 +68,7 @@ impl Rig {
                     acceleration: m.max_acceleration.into(),
                     jerk: m.max_jerk.into(),
                 },
-                react: policy != ReactionPolicy::Report,
+                react: policy != ReactionMode::Report,
                 armed,
             },
             monitor,
@@ -218,7 +210,7 @@ fn apply_carried_payload(rig: &Rig) {
 /// estimate and apply, arm; a contact then stops the arm.
 #[test]
 fn disarm_grasp_apply_arm_then_a_contact_stops_the_arm() {
-    for policy in [ReactionPolicy::Stop, ReactionPolicy::Pause] {
+    for policy in [ReactionMode::Stop, ReactionMode::Pause] {
         let mut rig = Rig::new(policy, true);
         rig.run(200);
         rig.send(CycleRequest::Arm(false));
@@ -247,7 +239,7 @@ fn disarm_grasp_apply_arm_then_a_contact_stops_the_arm() {
 /// Arming into a residual that is already over its threshold reacts at once.
 #[test]
 fn arming_into_a_present_contact_reacts() {
-    let mut rig = Rig::new(ReactionPolicy::Stop, false);
+    let mut rig = Rig::new(ReactionMode::Stop, false);
     rig.run(100);
     rig.carried = true;
     rig.run(100);
@@ -302,7 +294,7 @@ proptest! {
         ops in prop::collection::vec((op(), 5usize..150), 1..30),
         pause in any::<bool>(),
     ) {
-        let policy = if pause { ReactionPolicy::Pause } else { ReactionPolicy::Stop };
+        let policy = if pause { ReactionMode::Pause } else { ReactionMode::Stop };
         let mut rig = Rig::new(policy, true);
         rig.run(60);
         for (op, cycles) in ops {
@@ -341,7 +333,7 @@ fn any_collision_or_stop(events: &[CycleEvent]) -> bool {
 
 /// A moving, armed rig with the payload carried and compensated.
 fn armed_and_moving() -> Rig {
-    let mut rig = Rig::new(ReactionPolicy::Stop, true);
+    let mut rig = Rig::new(ReactionMode::Stop, true);
     rig.carried = true;
     apply_carried_payload(&rig);
     rig.run(200);

@@ -16,7 +16,7 @@ use std::time::Duration;
 use fri_api::cause::Cause;
 use fri_api::client::Client;
 use fri_api::protocol::{Command, OperatorError};
-use fri_service::config::{Config, ReactionPolicy};
+use fri_service::config::{Config, ReactionMode};
 use mock_robot::server::{ServerConfig, TimingMode};
 use mock_robot::{Simulation, SimulationConfig};
 use serde_json::Value;
@@ -46,7 +46,7 @@ impl Daemon {
         c.state.dir = dir.path().join("state");
         c.iceoryx2.enabled = false;
         c.observer.armed = true;
-        c.reaction.policy = ReactionPolicy::Stop;
+        c.reaction.policy = ReactionMode::Stop;
         // The demo's fast moves: a pause then costs the most set-point steps.
         c.motion.max_velocity = [0.9; 7];
         c.motion.max_acceleration = [5.0; 7];

@@ -27,7 +27,7 @@ use tokio::sync::watch;
 use super::plots::{self, Panel, Series};
 use fri_api::client::Client;
 use fri_api::protocol::{CollisionAction, Command, RecordKind};
-use fri_service::config::{Config, ReactionPolicy};
+use fri_service::config::{Config, ReactionMode};
 use fri_service::service::RunningService;
 use mock_robot::server::{ServerConfig, TimingMode};
 
@@ -185,7 +185,7 @@ fn demo_config(dir: &Path) -> Config {
     // The payload is unknown until estimated: report only, arm after the estimate.
     c.observer.armed = false;
     c.observer.thresholds = [THRESHOLD_NM; 7];
-    c.reaction.policy = ReactionPolicy::Report;
+    c.reaction.policy = ReactionMode::Report;
     c
 }
 

@@ -43,7 +43,8 @@ mod spatial;
 mod urdf;
 
 pub use base_parameters::{
-    BaseParameters, RegressorKind, base_parameters, base_parameters_of_columns,
+    BaseParameters, ColumnChoice, RegressorKind, base_parameters, base_parameters_of_columns,
+    stacked_gravity_regressor,
 };
 pub use coriolis::{
     coriolis_matrix, coriolis_transpose_times_velocity, mass_matrix_partial_derivatives,
@@ -65,7 +66,8 @@ pub use rnea::{
 };
 pub use robot_file::{JointSpec, LimitsSpec, LinkSpec, PoseSpec, RobotFile};
 pub use robots::{
-    LWR_BASE_TO_SHOULDER, LWR_FLANGE_OFFSET, LWR4_POSITION_LIMITS_DEG, LWR4_TORQUE_LIMITS_NM,
-    LWR4_VELOCITY_LIMITS_DEG_S, STANDARD_GRAVITY, inertia_tensor, lwr4, lwr4_heavy_payload,
-    lwr4_light_payload, lwr4_limits, lwr4_links, lwr4_modified_dh, planar_2r, planar_2r_payload,
+    LWR_BASE_TO_SHOULDER, LWR_FLANGE_OFFSET, LWR4_PICK_POSE_DEG, LWR4_PICK_POSE_RAD,
+    LWR4_POSITION_LIMITS_DEG, LWR4_TORQUE_LIMITS_NM, LWR4_VELOCITY_LIMITS_DEG_S, STANDARD_GRAVITY,
+    degrees_to_radians, inertia_tensor, lwr4, lwr4_heavy_payload, lwr4_light_payload, lwr4_limits,
+    lwr4_links, lwr4_modified_dh, planar_2r, planar_2r_payload,
 };

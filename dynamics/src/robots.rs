@@ -131,6 +131,24 @@ pub const LWR4_VELOCITY_LIMITS_DEG_S: [f64; 7] = [110.0, 110.0, 128.0, 128.0, 20
 /// LWR 4+ joint torque limits, ± Nm (lwr4-model.md §1.2).
 pub const LWR4_TORQUE_LIMITS_NM: [f64; 7] = [176.0, 176.0, 100.0, 100.0, 100.0, 38.0, 38.0];
 
+/// The paper's pick pose of the LWR 4+ (Sec. VI-A: the static poses, the collision runs and the
+/// simulated robot's start pose are around it), deg.
+pub const LWR4_PICK_POSE_DEG: [f64; 7] = [0.0, 30.0, 0.0, -60.0, 0.0, 60.0, 0.0];
+
+/// [`LWR4_PICK_POSE_DEG`] in rad (each angle `f64::to_radians` of the degrees).
+pub const LWR4_PICK_POSE_RAD: [f64; 7] = degrees_to_radians(LWR4_PICK_POSE_DEG);
+
+/// Each of `degrees` (deg) in rad, as `f64::to_radians`; usable in constants.
+pub const fn degrees_to_radians<const N: usize>(degrees: [f64; N]) -> [f64; N] {
+    let mut radians = [0.0; N];
+    let mut i = 0;
+    while i < N {
+        radians[i] = degrees[i].to_radians();
+        i += 1;
+    }
+    radians
+}
+
 fn lwr_flange() -> Isometry3<f64> {
     Isometry3::translation(0.0, 0.0, LWR_FLANGE_OFFSET)
 }

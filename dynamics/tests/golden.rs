@@ -103,8 +103,7 @@ fn lwr4_printed_values_of_the_model_document() {
         );
     }
     // Flange variant of the pick pose: payload CoM measured from the flange (z + 0.078).
-    let deg = std::f64::consts::PI / 180.0;
-    let pick = SVector::<f64, 7>::from([0.0, 30.0 * deg, 0.0, -60.0 * deg, 0.0, 60.0 * deg, 0.0]);
+    let pick = SVector::<f64, 7>::from(dynamics::LWR4_PICK_POSE_RAD);
     let y = payload_gravity_regressor(&model, &mut data, &pick);
     let g_flange = y * Vector4::new(3.028, 0.0, 0.0, 3.028 * (0.119 + 0.078));
     let printed = [0.0, -20.4517, 0.0, 14.5107, 0.0, -2.9259, 0.0];

@@ -15,8 +15,7 @@ fn bench(c: &mut Criterion) {
     let model = lwr4();
     let ctrl = perturbed_model(&model, &LWR4_EXAMPLE_PERTURBATION);
     let payload = InertialParameters::point_mass(3.028, Vector3::new(0.0, 0.0, 0.119));
-    let pick =
-        SVector::<f64, 7>::from([0.0, 30.0, 0.0, -60.0, 0.0, 60.0, 0.0].map(f64::to_radians));
+    let pick = SVector::<f64, 7>::from(dynamics::LWR4_PICK_POSE_RAD);
     let q10 = poses::paper_pattern(&model, &pick, 7f64.to_radians(), 10);
     let lim = model.limits();
     let q500 = spread_poses(&lim.position_min, &lim.position_max, 500);

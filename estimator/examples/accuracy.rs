@@ -201,8 +201,7 @@ fn main() {
     let model = lwr4();
     let heavy = InertialParameters::point_mass(3.028, Vector3::new(0.0, 0.0, 0.119));
     let light = InertialParameters::point_mass(0.144, Vector3::new(0.0, 0.0, 0.1146));
-    let pick =
-        SVector::<f64, 7>::from([0.0, 30.0, 0.0, -60.0, 0.0, 60.0, 0.0].map(f64::to_radians));
+    let pick = SVector::<f64, 7>::from(dynamics::LWR4_PICK_POSE_RAD);
     let q10 = paper_pattern(&model, &pick, 7f64.to_radians(), 10);
     let nominal = Nominal {
         mass: 3.028,

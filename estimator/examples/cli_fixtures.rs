@@ -29,8 +29,7 @@ fn main() {
     let none = InertialParameters::zero();
     let mut rng = StdRng::seed_from_u64(2017);
     let normal = Normal::new(0.0, 0.05).unwrap();
-    let pick =
-        SVector::<f64, 7>::from([0.0, 30.0, 0.0, -60.0, 0.0, 60.0, 0.0].map(f64::to_radians));
+    let pick = SVector::<f64, 7>::from(dynamics::LWR4_PICK_POSE_RAD);
     let q10 = paper_pattern(&model, &pick, 7f64.to_radians(), 10);
     let write = |name: &str, s: &[estimator::samples::StaticSample<7>]| {
         write_csv(File::create(dir.join(name)).unwrap(), s).unwrap();

@@ -2,7 +2,10 @@
 //! parameters (m_i, m_i c_i) the gravity torques depend on (the paper's π_g, eq. 38, up to a
 //! change of basis), found by column selection on a regressor stacked over many poses.
 
-use dynamics::{Data, Model, gravity_regressor};
+use dynamics::{
+    ColumnChoice, Data, Model, base_parameters_of_columns, gravity_regressor,
+    stacked_gravity_regressor,
+};
 use nalgebra::{DMatrix, DVector, SVector};
 
 /// Deterministic low-discrepancy poses over the joint ranges: q_kj = mid_j + half_j·u_kj with
@@ -75,59 +78,18 @@ impl GravityBasis {
         let lim = model.limits();
         let (lo, hi) = clamp_limits(&lim.position_min, &lim.position_max);
         let poses = spread_poses(&lo, &hi, 8 * 4 * N);
-        let mut data = Data::new(model);
-        let cols = 4 * N;
-        let mut w = DMatrix::zeros(poses.len() * N, cols);
-        for (k, q) in poses.iter().enumerate() {
-            let blocks = gravity_regressor(model, &mut data, q);
-            for (b, block) in blocks.iter().enumerate() {
-                w.view_mut((k * N, 4 * b), (N, 4)).copy_from(block);
-            }
-        }
-        Self::of_columns(&w, N)
+        Self::of_columns(&stacked_gravity_regressor(model, &poses), N)
     }
 
-    /// Column selection with Gram–Schmidt in column order; a column is dependent when less than
-    /// 1e-8 of its norm (relative to the largest column) remains after projection.
+    /// Column selection in column order ([`ColumnChoice::InOrder`] of
+    /// [`dynamics::base_parameters_of_columns`]); a column is dependent when less than 1e-8 of
+    /// its norm (relative to the largest column) remains after projection.
     pub fn of_columns(w: &DMatrix<f64>, joints: usize) -> Self {
-        let cols = w.ncols();
-        let scale = (0..cols).map(|c| w.column(c).norm()).fold(0.0, f64::max);
-        let tol = 1e-8 * scale.max(f64::MIN_POSITIVE);
-        let mut basis: Vec<DVector<f64>> = Vec::new();
-        let mut independent = Vec::new();
-        for c in 0..cols {
-            let mut v = w.column(c).into_owned();
-            for _ in 0..2 {
-                for b in &basis {
-                    let d = b.dot(&v);
-                    v.axpy(-d, b, 1.0);
-                }
-            }
-            let n = v.norm();
-            if n > tol {
-                basis.push(v / n);
-                independent.push(c);
-            }
-        }
-        let nb = independent.len();
-        let mut map = DMatrix::zeros(nb, cols);
-        let wb = DMatrix::from_fn(w.nrows(), nb, |r, c| w[(r, independent[c])]);
-        let svd = wb.svd(true, true);
-        for (i, &c) in independent.iter().enumerate() {
-            map[(i, c)] = 1.0;
-        }
-        for c in (0..cols).filter(|c| !independent.contains(c)) {
-            // w_c = W_B β_c  →  p_c folds into π_b with weights β_c
-            if let Ok(beta) = svd.solve(&w.column(c).into_owned(), 1e-12) {
-                for i in 0..nb {
-                    map[(i, c)] = if beta[i].abs() < 1e-10 { 0.0 } else { beta[i] };
-                }
-            }
-        }
+        let base = base_parameters_of_columns(w, 1e-8, ColumnChoice::InOrder);
         GravityBasis {
             joints,
-            independent,
-            map,
+            independent: base.independent,
+            map: base.map,
         }
     }
 

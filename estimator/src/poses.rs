@@ -247,7 +247,7 @@ mod tests {
     use super::*;
 
     fn pick() -> SVector<f64, 7> {
-        SVector::from([0.0, 30.0, 0.0, -60.0, 0.0, 60.0, 0.0].map(f64::to_radians))
+        SVector::from(dynamics::LWR4_PICK_POSE_RAD)
     }
 
     #[test]

@@ -13,8 +13,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::EstimatorError;
 
-/// One static sample of an n-joint robot.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// One static sample of an n-joint robot (serde: `{"q": [..], "tau": [..], "gravity": [..]}`
+/// with optional `qd` and `drift`, as the service stores its tare).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct StaticSample<const N: usize> {
     /// Measured joint positions, rad.
     pub q: SVector<f64, N>,
@@ -23,8 +25,10 @@ pub struct StaticSample<const N: usize> {
     /// The controller's gravity torques g_ctrl(q) computed without payload, Nm.
     pub gravity: SVector<f64, N>,
     /// Joint velocities at sampling time, rad/s, when recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub qd: Option<SVector<f64, N>>,
     /// Position drift over the averaging window, rad, when recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub drift: Option<SVector<f64, N>>,
 }
 
@@ -229,7 +233,32 @@ pub fn read_csv<const N: usize, R: Read>(
     Ok(out)
 }
 
-/// Writes static samples as CSV with the header `q1..qn,tau1..taun,g1..gn` (plus `qd*` when present).
+/// Header of the static-sample CSV: `q1..qn,tau1..taun,g1..gn`, plus `qd1..qdn` when `with_qd`.
+pub fn csv_header<const N: usize>(with_qd: bool) -> Vec<String> {
+    let groups: &[&str] = if with_qd {
+        &["q", "tau", "g", "qd"]
+    } else {
+        &["q", "tau", "g"]
+    };
+    groups
+        .iter()
+        .flat_map(|p| (1..=N).map(move |j| format!("{p}{j}")))
+        .collect()
+}
+
+/// One static-sample CSV row in the column order of [`csv_header`] (rad, Nm, Nm, rad/s), each
+/// value written in the shortest form that reads back exactly.
+pub fn csv_row<const N: usize>(sample: &StaticSample<N>, with_qd: bool) -> Vec<String> {
+    let qd = sample.qd.filter(|_| with_qd);
+    [&sample.q, &sample.tau, &sample.gravity]
+        .into_iter()
+        .chain(qd.as_ref())
+        .flat_map(|v| v.iter().map(|x| format!("{x}")))
+        .collect()
+}
+
+/// Writes static samples as CSV ([`csv_header`], then one [`csv_row`] per sample); the `qd*`
+/// columns are written when every sample has velocities.
 pub fn write_csv<const N: usize, W: std::io::Write>(
     writer: W,
     samples: &[StaticSample<N>],
@@ -237,23 +266,9 @@ pub fn write_csv<const N: usize, W: std::io::Write>(
     let err = |e: csv::Error| EstimatorError::Csv(e.to_string());
     let mut w = csv::Writer::from_writer(writer);
     let with_qd = samples.iter().all(|s| s.qd.is_some()) && !samples.is_empty();
-    let mut header: Vec<String> = Vec::new();
-    for p in ["q", "tau", "g"] {
-        header.extend((1..=N).map(|j| format!("{p}{j}")));
-    }
-    if with_qd {
-        header.extend((1..=N).map(|j| format!("qd{j}")));
-    }
-    w.write_record(&header).map_err(err)?;
+    w.write_record(csv_header::<N>(with_qd)).map_err(err)?;
     for s in samples {
-        let mut row: Vec<String> = Vec::with_capacity(4 * N);
-        for v in [&s.q, &s.tau, &s.gravity] {
-            row.extend(v.iter().map(|x| format!("{x:.12e}")));
-        }
-        if let (true, Some(qd)) = (with_qd, &s.qd) {
-            row.extend(qd.iter().map(|x| format!("{x:.12e}")));
-        }
-        w.write_record(&row).map_err(err)?;
+        w.write_record(csv_row(s, with_qd)).map_err(err)?;
     }
     w.flush().map_err(|e| EstimatorError::Csv(e.to_string()))?;
     Ok(())
@@ -279,6 +294,28 @@ mod tests {
         let r: Vec<StaticSample<2>> = read_csv(text.as_bytes()).unwrap();
         assert_eq!(r[0].gravity, SVector::from([2.0, 1.0]));
         assert_eq!(r[0].delta_tau(), SVector::from([1.0, 3.0]));
+    }
+
+    #[test]
+    fn csv_is_exact_and_json_keeps_the_stored_shape() {
+        let mut s = StaticSample::<2>::new(
+            SVector::from([0.1, -1.0 / 3.0]),
+            SVector::from([1.0, 2.0]),
+            SVector::from([0.5, 1.5]),
+        );
+        let mut buf = Vec::new();
+        write_csv(&mut buf, &[s]).unwrap();
+        let text = String::from_utf8(buf).unwrap();
+        assert!(text.starts_with("q1,q2,tau1,tau2,g1,g2\n0.1,"), "{text}");
+        let back: Vec<StaticSample<2>> = read_csv(text.as_bytes()).unwrap();
+        assert_eq!(back, vec![s]);
+        let json = r#"{"q":[0.1,0.2],"tau":[1.0,2.0],"gravity":[0.5,1.5]}"#;
+        let parsed: StaticSample<2> = serde_json::from_str(json).unwrap();
+        assert_eq!(parsed.q, SVector::from([0.1, 0.2]));
+        assert_eq!(parsed.qd, None);
+        s.q = parsed.q;
+        assert_eq!(serde_json::to_string(&s).unwrap(), json);
+        assert!(serde_json::from_str::<StaticSample<2>>(r#"{"q":[0,0],"tau":[0,0]}"#).is_err());
     }
 
     #[test]

@@ -19,8 +19,7 @@ fn u(k: usize, j: usize) -> f64 {
 }
 
 fn q10() -> Vec<SVector<f64, 7>> {
-    let pick =
-        SVector::<f64, 7>::from([0.0, 30.0, 0.0, -60.0, 0.0, 60.0, 0.0].map(f64::to_radians));
+    let pick = SVector::<f64, 7>::from(dynamics::LWR4_PICK_POSE_RAD);
     (1..=10)
         .map(|k| pick + SVector::from_fn(|j, _| 7f64.to_radians() * u(k, j)))
         .collect()

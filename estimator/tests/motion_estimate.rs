@@ -118,8 +118,7 @@ fn paper_sweeps_with_model_unloaded_torques() {
     let truth = model.with_payload(&payload());
     let mut rng = StdRng::seed_from_u64(45);
     let loaded = sweeps(&truth, &mut rng);
-    let pick =
-        SVector::<f64, 7>::from([0.0, 30.0, 0.0, -60.0, 0.0, 60.0, 0.0].map(f64::to_radians));
+    let pick = SVector::<f64, 7>::from(dynamics::LWR4_PICK_POSE_RAD);
     let noise = Normal::new(0.0, 0.05).unwrap();
     let statics = static_samples(
         &model,

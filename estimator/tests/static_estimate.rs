@@ -13,7 +13,7 @@ fn deg(v: f64) -> f64 {
 }
 
 fn pick() -> SVector<f64, 7> {
-    SVector::from([0.0, 30.0, 0.0, -60.0, 0.0, 60.0, 0.0].map(deg))
+    SVector::from(dynamics::LWR4_PICK_POSE_RAD)
 }
 
 fn u(k: usize, j: usize) -> f64 {

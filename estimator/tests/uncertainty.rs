@@ -19,8 +19,7 @@ const COM: [f64; 3] = [0.0, 0.0, 0.119]; // m, frame 7
 
 fn q10() -> Vec<SVector<f64, 7>> {
     let p = [2.0f64, 3.0, 5.0, 7.0, 11.0, 13.0, 17.0];
-    let pick =
-        SVector::<f64, 7>::from([0.0, 30.0, 0.0, -60.0, 0.0, 60.0, 0.0].map(f64::to_radians));
+    let pick = SVector::<f64, 7>::from(dynamics::LWR4_PICK_POSE_RAD);
     (1..=10)
         .map(|k| {
             pick + SVector::from_fn(|j, _| {

@@ -13,8 +13,8 @@ use crate::motion::MotionSegment;
 
 pub use fri::wire::JOINTS;
 
-/// Default start pose: the paper's "pick" pose (0, 30, 0, −60, 0, 60, 0) deg, in degrees.
-pub const DEFAULT_INITIAL_Q_DEG: [f64; JOINTS] = [0.0, 30.0, 0.0, -60.0, 0.0, 60.0, 0.0];
+/// Default start pose: the paper's pick pose ([`dynamics::LWR4_PICK_POSE_DEG`]), deg.
+pub const DEFAULT_INITIAL_Q_DEG: [f64; JOINTS] = dynamics::LWR4_PICK_POSE_DEG;
 
 /// Complete configuration of one simulation run (a scenario).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]

@@ -7,27 +7,19 @@
 
 use serde::{Deserialize, Serialize};
 
+use trajectory::{QuinticSegment, quintic, rest_to_rest_duration};
+
 use crate::config::JOINTS;
 use crate::error::{SimError, ensure};
 use crate::sensors::JointVector;
 
 /// Joint velocity limits of the LWR 4+, rad/s (from `dynamics`' lwr4-model.md §1.2 table).
 pub const VELOCITY_LIMITS_RAD_S: [f64; JOINTS] =
-    degrees_to_radians(dynamics::LWR4_VELOCITY_LIMITS_DEG_S);
+    dynamics::degrees_to_radians(dynamics::LWR4_VELOCITY_LIMITS_DEG_S);
 
 /// Joint position limits of the LWR 4+, ± rad (from `dynamics`' lwr4-model.md §1.2 table).
 pub const POSITION_LIMITS_RAD: [f64; JOINTS] =
-    degrees_to_radians(dynamics::LWR4_POSITION_LIMITS_DEG);
-
-const fn degrees_to_radians(degrees: [f64; JOINTS]) -> [f64; JOINTS] {
-    let mut radians = [0.0; JOINTS];
-    let mut i = 0;
-    while i < JOINTS {
-        radians[i] = degrees[i] * std::f64::consts::PI / 180.0;
-        i += 1;
-    }
-    radians
-}
+    dynamics::degrees_to_radians(dynamics::LWR4_POSITION_LIMITS_DEG);
 
 /// Default PTP speed as a fraction of the joint velocity limits.
 pub const DEFAULT_SPEED_FRACTION: f64 = 0.3;
@@ -170,26 +162,13 @@ fn last_peak_time(f0: f64, f1: f64, duration: f64) -> f64 {
     }
 }
 
-/// Quintic min-jerk profile s(τ) and its first two derivatives for τ in [0, 1].
-fn quintic(tau: f64) -> (f64, f64, f64) {
-    let t = tau.clamp(0.0, 1.0);
-    let (t2, t3) = (t * t, t * t * t);
-    (
-        10.0 * t3 - 15.0 * t3 * t + 6.0 * t3 * t2,
-        30.0 * t2 - 60.0 * t3 + 30.0 * t2 * t2,
-        60.0 * t - 180.0 * t2 + 120.0 * t3,
-    )
-}
-
 /// Move time of a synchronous quintic PTP from `from` to `to` at `speed_fraction` of the limits
 /// (peak acceleration limited to 2 s⁻¹ × velocity limit), s.
 pub fn ptp_duration(from: &JointVector, to: &JointVector, speed_fraction: f64) -> f64 {
     let mut t: f64 = 0.2;
     for i in 0..JOINTS {
-        let d = (to[i] - from[i]).abs();
         let v = VELOCITY_LIMITS_RAD_S[i] * speed_fraction;
-        let a = 2.0 * VELOCITY_LIMITS_RAD_S[i] * speed_fraction;
-        t = t.max(1.875 * d / v).max((5.7735 * d / a).sqrt());
+        t = t.max(rest_to_rest_duration((to[i] - from[i]).abs(), v, 2.0 * v));
     }
     t
 }
@@ -252,12 +231,16 @@ impl Primitive {
     fn sample(&self, t: f64) -> SetPoint {
         match self {
             Self::Move { from, to, duration } => {
-                let (s, ds, dds) = quintic(t / duration);
-                let delta = to - from;
+                let sp = QuinticSegment {
+                    from: *from,
+                    to: *to,
+                    duration: *duration,
+                }
+                .sample(t);
                 SetPoint {
-                    q: from + delta * s,
-                    qd: delta * (ds / duration),
-                    qdd: delta * (dds / (duration * duration)),
+                    q: sp.position,
+                    qd: sp.velocity,
+                    qdd: sp.acceleration,
                 }
             }
             Self::Hold { q, .. } => SetPoint::rest(*q),

@@ -115,8 +115,7 @@ fn external_torque_step_with_velocity_from_positions() {
 fn observer_at_rest_matches_analytic_discrete_step_responses() {
     let model = lwr4();
     let mut data = Data::new(&model);
-    use std::f64::consts::{FRAC_PI_3, FRAC_PI_6};
-    let q = V7::from_column_slice(&[0.0, FRAC_PI_6, 0.0, -FRAC_PI_3, 0.0, FRAC_PI_3, 0.0]);
+    let q = V7::from(dynamics::LWR4_PICK_POSE_RAD);
     let g = compute_generalized_gravity(&model, &mut data, &q);
     let tau_ext = V7::from_column_slice(&[1.0, -6.0, 2.0, 5.0, -0.5, 0.7, 0.2]);
     let gains = V7::from_column_slice(&[25.0, 50.0, 100.0, 200.0, 300.0, 450.0, 600.0]);

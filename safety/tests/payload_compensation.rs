@@ -6,6 +6,7 @@
 mod support;
 
 use dynamics::{InertialParameters, lwr4};
+use estimator::sim::{LWR4_EXAMPLE_PERTURBATION, perturbed_model};
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand::rngs::StdRng;
@@ -20,7 +21,7 @@ fn peaks(v_max: f64, a_max: f64) -> (f64, f64, f64, f64) {
     let nominal = lwr4();
     let payload = heavy_payload_with_inertia();
     let plant_model = nominal.with_payload(&payload);
-    let controller_model = nominal.with_links(perturbed_links(nominal.links(), &CONTROLLER_DP));
+    let controller_model = perturbed_model(&nominal, &LWR4_EXAMPLE_PERTURBATION);
     let q0 = nalgebra::SVector::<f64, 7>::from_column_slice(&[0.0, 0.5, 0.0, -1.2, 0.0, 0.8, 0.0]);
     let q1 = nalgebra::SVector::<f64, 7>::from_column_slice(&[0.9, 0.9, 0.5, -0.7, 0.6, 0.3, 0.8]);
     let q2 =

@@ -4,6 +4,6 @@ pub mod publisher;
 pub mod thread;
 
 pub use fri_api::ipc as messages;
-pub use fri_api::ipc::{CollisionEvent, PayloadEstimate, RobotState};
+pub use fri_api::ipc::{CollisionMessage, PayloadEstimate, RobotState};
 pub use publisher::{IpcError, IpcNames, Publisher};
 pub use thread::{IpcSender, IpcThread};

@@ -7,7 +7,7 @@
 use iceoryx2::port::publisher::Publisher as IoxPublisher;
 use iceoryx2::prelude::*;
 
-use super::messages::{CollisionEvent, PayloadEstimate, RobotState};
+use super::messages::{CollisionMessage, PayloadEstimate, RobotState};
 
 /// Errors setting up or using iceoryx2.
 #[derive(Debug, thiserror::Error)]
@@ -122,11 +122,11 @@ pub fn open_service<T: ZeroCopySend + std::fmt::Debug + 'static>(
 pub struct Publisher {
     // Field order = drop order: ports before the services before the node.
     state: IoxPublisher<ipc::Service, RobotState, ()>,
-    collision: IoxPublisher<ipc::Service, CollisionEvent, ()>,
+    collision: IoxPublisher<ipc::Service, CollisionMessage, ()>,
     payload: IoxPublisher<ipc::Service, PayloadEstimate, ()>,
     _services: (
         PubSubService<RobotState>,
-        PubSubService<CollisionEvent>,
+        PubSubService<CollisionMessage>,
         PubSubService<PayloadEstimate>,
     ),
     _node: Node<ipc::Service>,
@@ -145,7 +145,7 @@ impl Publisher {
         // The state is high-rate: a subscriber only wants the newest; events keep a history so a
         // late subscriber still sees the last ones.
         let state_service = open_service::<RobotState>(&node, &names.state(), 1)?;
-        let collision_service = open_service::<CollisionEvent>(&node, &names.collision(), 16)?;
+        let collision_service = open_service::<CollisionMessage>(&node, &names.collision(), 16)?;
         let payload_service = open_service::<PayloadEstimate>(&node, &names.payload(), 4)?;
         let port = |what: &'static str| {
             move |e: iceoryx2::port::publisher::PublisherCreateError| IpcError::Setup {
@@ -189,7 +189,7 @@ impl Publisher {
     }
 
     /// Publishes a collision event.
-    pub fn publish_collision(&self, value: &CollisionEvent) -> Result<(), IpcError> {
+    pub fn publish_collision(&self, value: &CollisionMessage) -> Result<(), IpcError> {
         self.collision
             .send_copy(*value)
             .map(|_| ())

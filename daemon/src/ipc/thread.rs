@@ -12,7 +12,7 @@ use std::thread::JoinHandle;
 
 use tracing::warn;
 
-use super::messages::{CollisionEvent, PayloadEstimate, RobotState};
+use super::messages::{CollisionMessage, PayloadEstimate, RobotState};
 use super::publisher::{IpcError, IpcNames, Publisher};
 
 /// Messages queued per publisher thread (≈ 0.1 s of state at 1 kHz... plus headroom).
@@ -21,7 +21,7 @@ const QUEUE: usize = 1024;
 #[allow(clippy::large_enum_variant)] // by value on purpose: no allocation per message
 enum Message {
     State(RobotState),
-    Collision(CollisionEvent),
+    Collision(CollisionMessage),
     Payload(PayloadEstimate),
 }
 
@@ -60,7 +60,7 @@ impl IpcSender {
     }
 
     /// Queues a collision event.
-    pub fn collision(&self, e: &CollisionEvent) -> bool {
+    pub fn collision(&self, e: &CollisionMessage) -> bool {
         self.offer(Message::Collision(*e))
     }
 

@@ -1,5 +1,3 @@
-//! Motion the service commands itself: jerk-limited joint interpolation.
+//! Motion the service commands itself: the jerk-limited joint moves of the `trajectory` crate.
 
-pub mod interpolation;
-
-pub use interpolation::{JointMove, JointSetpoint, MotionError, MotionLimits};
+pub use trajectory::{JointMove, JointSetpoint, MotionError, MotionLimits};

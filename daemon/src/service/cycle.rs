@@ -30,7 +30,7 @@ use safety::{CollisionMonitor, ObserverInput, PayloadCompensation, ReactionReque
 
 pub use super::output::CycleEvent;
 use super::output::{AbortReason, FriContext, ResyncReason, StopReason};
-use crate::ipc::{CollisionEvent, RobotState};
+use crate::ipc::{CollisionMessage, RobotState};
 use crate::motion::{JointMove, MotionLimits};
 use fri_api::ipc::flags;
 
@@ -389,7 +389,7 @@ impl CycleProcessor {
         {
             let mut residual = [0.0; 7];
             residual.copy_from_slice(e.residual.as_slice());
-            self.emit(CycleEvent::Collision(CollisionEvent {
+            self.emit(CycleEvent::Collision(CollisionMessage {
                 cycle: self.cycle,
                 time_s: self.time_s,
                 residual,

@@ -27,10 +27,10 @@ use anyhow::Context as _;
 use dynamics::Model;
 use fri::endpoint::{Endpoint, EndpointConfig};
 use nalgebra::SVector;
-use safety::{CollisionMonitor, GravitySource, MonitorConfig, ReactionPolicy as SafetyPolicy};
+use safety::{CollisionMonitor, GravitySource, MonitorConfig, ReactionPolicy};
 use tokio::sync::watch;
 
-use crate::config::{Config, ReactionPolicy};
+use crate::config::{Config, ReactionMode};
 use crate::ipc::{IpcNames, IpcThread};
 use crate::motion::MotionLimits;
 use crate::operator::server::{self, AccessPolicy, ServerLimits};
@@ -57,10 +57,10 @@ pub fn build_monitor(
     mc.observer.gravity_source = GravitySource::Model;
     mc.detector.thresholds_nm = SVector::from(config.observer.thresholds);
     mc.reaction = match config.reaction.policy {
-        ReactionPolicy::Pause => SafetyPolicy::PauseThenResume {
+        ReactionMode::Pause => ReactionPolicy::PauseThenResume {
             pause_s: config.reaction.pause_s,
         },
-        ReactionPolicy::Stop | ReactionPolicy::Report => SafetyPolicy::Stop,
+        ReactionMode::Stop | ReactionMode::Report => ReactionPolicy::Stop,
     };
     CollisionMonitor::new(model, mc)
 }
@@ -120,7 +120,7 @@ impl RunningService {
                 acceleration: SVector::from(m.max_acceleration),
                 jerk: SVector::from(m.max_jerk),
             },
-            react: config.reaction.policy != ReactionPolicy::Report,
+            react: config.reaction.policy != ReactionMode::Report,
             armed: config.observer.armed,
         };
         let processor = CycleProcessor::new(settings, monitor, request_rx, event_tx);

@@ -7,7 +7,7 @@ use serde::Serialize;
 
 pub use fri_api::fri_context::FriContext;
 
-use crate::ipc::{CollisionEvent, RobotState};
+use crate::ipc::{CollisionMessage, RobotState};
 
 /// Why the loop stopped the arm.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -116,7 +116,7 @@ pub enum CycleEvent {
     /// The state of one cycle.
     State(RobotState),
     /// A collision onset while armed.
-    Collision(CollisionEvent),
+    Collision(CollisionMessage),
     /// The loop stopped the arm.
     Stopped {
         /// Cycle of the stop.

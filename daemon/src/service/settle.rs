@@ -139,11 +139,7 @@ impl Averager {
             .map(|j| (self.last_q[j] - first[j]).abs())
             .fold(0.0, f64::max);
         Some(AveragedSample {
-            sample: StaticSample {
-                q: mean(&self.q),
-                tau,
-                gravity: mean(&self.gravity),
-            },
+            sample: StaticSample::new(mean(&self.q).into(), tau.into(), mean(&self.gravity).into()),
             max_speed: self.max_speed,
             torque_std,
             drift,
@@ -198,9 +194,9 @@ mod tests {
         a.push(&state(0.001, 1.0));
         a.push(&state(-0.002, 3.0));
         let s = a.finish().unwrap();
-        assert_eq!(s.sample.tau, [2.0; 7]);
-        assert_eq!(s.sample.gravity, [1.0; 7]);
-        assert_eq!(s.sample.q, [0.5; 7]);
+        assert_eq!(s.sample.tau.as_slice(), [2.0; 7]);
+        assert_eq!(s.sample.gravity.as_slice(), [1.0; 7]);
+        assert_eq!(s.sample.q.as_slice(), [0.5; 7]);
         assert!((s.torque_std[0] - 2f64.sqrt()).abs() < 1e-12);
         assert_eq!(s.max_speed, 0.002);
         assert_eq!(s.cycles, 2);

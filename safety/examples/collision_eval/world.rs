@@ -4,7 +4,7 @@
 use std::net::SocketAddr;
 use std::time::{Duration, Instant};
 
-use dynamics::{InertialParameters, Model, lwr4};
+use dynamics::{InertialParameters, LWR4_PICK_POSE_DEG, Model, lwr4};
 use estimator::estimate::PayloadEstimate;
 use estimator::samples::StaticSample;
 use fri::handshake::{HandshakeStatus, KrlStatus, KrlStrategy, RequestKind};
@@ -17,9 +17,6 @@ use safety::{ObserverInput, PayloadCompensation};
 
 use crate::T;
 use crate::support::{Contact, Profile, Quintic, Trajectory, V7, heavy_payload_with_inertia};
-
-/// The paper's "pick" pose (0, 30, 0, −60, 0, 60, 0) deg, where every run starts.
-pub const PICK_DEG: [f64; 7] = [0.0, 30.0, 0.0, -60.0, 0.0, 60.0, 0.0];
 
 /// Ten static poses around "pick" (pick + 7° · u_k, lwr4-model.md §4; the same as
 /// mock-robot/scenarios/static-poses.toml), deg.
@@ -94,7 +91,7 @@ impl World {
     /// A run with robot seed `seed` (controller-model perturbation, sensor offsets and noise)
     /// that ends its pick-estimate sequence at rest at `q0`; `contacts` in experiment time.
     pub fn new(seed: u64, q0: &V7, contacts: &[Contact]) -> Self {
-        let pick = deg(&PICK_DEG);
+        let pick = deg(&LWR4_PICK_POSE_DEG);
         let mut waypoints = vec![pick];
         waypoints.extend(STATIC_POSES_DEG.iter().map(deg));
         waypoints.push(*q0);
@@ -103,7 +100,7 @@ impl World {
         let config = SimulationConfig {
             name: "collision_eval".into(),
             seed,
-            initial_q_deg: PICK_DEG,
+            initial_q_deg: LWR4_PICK_POSE_DEG,
             contacts: contacts.iter().map(|c| contact_spec(c, t_start)).collect(),
             ..SimulationConfig::default()
         };

@@ -12,34 +12,9 @@ use nalgebra::{Matrix3, SVector, Vector3};
 use rand::Rng;
 use rand::rngs::StdRng;
 use rand_distr::{Distribution, Normal};
+use trajectory::{QuinticSegment, rest_to_rest_duration};
 
 pub type V7 = SVector<f64, 7>;
-
-/// Controller model perturbation of lwr4-model.md §4 (`controller_model_example` of
-/// lwr4-golden.json): per link [dm kg, d(m cx), d(m cy), d(m cz) kg·m], DH frame i.
-pub const CONTROLLER_DP: [[f64; 4]; 7] = [
-    [-0.01213, -0.00186, -0.00294, 0.00344],
-    [-0.03103, 0.00096, -0.00492, -0.00297],
-    [-0.02672, -0.00306, 0.00198, 0.00481],
-    [-0.00606, -0.0006, 0.00048, 0.00061],
-    [0.02036, 0.00019, -0.00506, 0.00266],
-    [-0.04446, 0.00493, -0.0024, -0.00537],
-    [0.01211, 0.00391, 0.00055, 0.00154],
-];
-
-/// Links with a gravity-parameter perturbation dp (rows [dm, d(mc)]) added; the inertia about
-/// the link origin is kept.
-pub fn perturbed_links(
-    links: &[InertialParameters; 7],
-    dp: &[[f64; 4]; 7],
-) -> [InertialParameters; 7] {
-    let mut out = *links;
-    for (l, d) in out.iter_mut().zip(dp.iter()) {
-        l.mass += d[0];
-        l.first_moment += Vector3::new(d[1], d[2], d[3]);
-    }
-    out
-}
 
 /// A Gaussian draw of the §4 perturbation (σ 0.02 kg, 0.005 kg·m) plus a relative scaling of
 /// each link's inertia tensor about its CoM by N(1, `inertia_sigma`²).
@@ -150,8 +125,8 @@ impl Trajectory for Hold {
 
 /// Rest-to-rest quintic segments through waypoints, with optional dwell at each waypoint.
 pub struct Quintic {
-    /// (start time, duration, from, to)
-    segments: Vec<(f64, f64, V7, V7)>,
+    /// (start time s, segment)
+    segments: Vec<(f64, QuinticSegment<7>)>,
     end: f64,
     last: V7,
 }
@@ -164,11 +139,15 @@ impl Quintic {
         let mut t = dwell;
         for w in waypoints.windows(2) {
             let delta = (w[1] - w[0]).abs().max();
-            // Quintic peak velocity 1.875Δ/T, peak acceleration 5.7735Δ/T².
-            let duration = (1.875 * delta / v_max)
-                .max((5.7735 * delta / a_max).sqrt())
-                .max(0.05);
-            segments.push((t, duration, w[0], w[1]));
+            let duration = rest_to_rest_duration(delta, v_max, a_max).max(0.05);
+            segments.push((
+                t,
+                QuinticSegment {
+                    from: w[0],
+                    to: w[1],
+                    duration,
+                },
+            ));
             t += duration + dwell;
         }
         let last = *waypoints.last().unwrap();
@@ -185,22 +164,17 @@ impl Quintic {
 
 impl Trajectory for Quintic {
     fn sample(&self, t: f64) -> (V7, V7, V7) {
-        let first = self.segments.first().map(|s| s.2).unwrap_or(self.last);
+        let first = self.segments.first().map(|s| s.1.from).unwrap_or(self.last);
         let mut hold = first;
-        for &(start, dur, from, to) in &self.segments {
-            if t < start {
+        for (start, segment) in &self.segments {
+            if t < *start {
                 return (hold, V7::zeros(), V7::zeros());
             }
-            if t <= start + dur {
-                let s = (t - start) / dur;
-                let (s2, s3) = (s * s, s * s * s);
-                let pos = 10.0 * s3 - 15.0 * s3 * s + 6.0 * s3 * s2;
-                let vel = (30.0 * s2 - 60.0 * s3 + 30.0 * s2 * s2) / dur;
-                let acc = (60.0 * s - 180.0 * s2 + 120.0 * s3) / (dur * dur);
-                let d = to - from;
-                return (from + d * pos, d * vel, d * acc);
+            if t <= start + segment.duration {
+                let sp = segment.sample(t - start);
+                return (sp.position, sp.velocity, sp.acceleration);
             }
-            hold = to;
+            hold = segment.to;
         }
         (self.last, V7::zeros(), V7::zeros())
     }

@@ -36,7 +36,7 @@ impl ServiceCore {
                 json!({"phase": "estimating", "workflow": "estimate"}),
             )
             .await;
-        let loaded: Vec<StaticSample> = samples.iter().map(|s| s.sample.clone()).collect();
+        let loaded: Vec<StaticSample> = samples.iter().map(|s| s.sample).collect();
         let tare_matches = tare.as_ref().is_some_and(|t| {
             t.samples.len() == loaded.len()
                 && t.samples
@@ -96,13 +96,8 @@ pub fn estimate(
     loaded: &[StaticSample],
     tare: Option<&Tare>,
 ) -> Result<estimator::estimate::PayloadEstimate, OperatorError> {
-    let to_est = |s: &StaticSample, reference: &[f64; 7]| {
-        estimator::samples::StaticSample::new(
-            SVector::from(s.q),
-            SVector::from(s.tau),
-            SVector::from(*reference),
-        )
-    };
+    let to_est =
+        |s: &StaticSample, reference: &SVector<f64, 7>| StaticSample::new(s.q, s.tau, *reference);
     let samples: Vec<_> = match tare {
         Some(t) => loaded
             .iter()

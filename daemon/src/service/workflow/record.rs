@@ -7,7 +7,6 @@ use tokio::sync::broadcast::error::RecvError;
 use tokio::time::Instant;
 
 use crate::operator::server::EventSink;
-use crate::persistence::StaticSample;
 use crate::service::core::{ServiceCore, err};
 use crate::service::stream::Update;
 use fri_api::protocol::{ErrorCode, OperatorError};
@@ -57,15 +56,13 @@ impl ServiceCore {
                         )
                         .await;
                 }
-                let mut text = String::new();
-                text.push_str(&static_csv_header());
-                for r in &rows {
-                    text.push_str(&static_csv_row(r));
-                }
+                let mut text = Vec::new();
+                estimator::samples::write_csv(&mut text, &rows)
+                    .map_err(|e| err(ErrorCode::Failed, e.to_string()))?;
                 // Created only now, exclusively: the name may have been taken while sampling.
                 let (mut file, _) = dir.create(path).map_err(refuse)?;
                 use std::io::Write;
-                file.write_all(text.as_bytes()).map_err(io)?;
+                file.write_all(&text).map_err(io)?;
                 Ok(json!({"rows": rows.len(), "path": shown}))
             }
             RecordKind::Log => {
@@ -123,26 +120,4 @@ impl ServiceCore {
             }
         }
     }
-}
-
-/// Header of the static-sample CSV (`q1..q7,tau1..tau7,g1..g7`).
-pub fn static_csv_header() -> String {
-    let mut h = Vec::new();
-    for name in ["q", "tau", "g"] {
-        for j in 1..=7 {
-            h.push(format!("{name}{j}"));
-        }
-    }
-    h.join(",") + "\n"
-}
-
-/// One row of the static-sample CSV.
-pub fn static_csv_row(s: &StaticSample) -> String {
-    let v: Vec<String> =
-        s.q.iter()
-            .chain(&s.tau)
-            .chain(&s.gravity)
-            .map(|x| format!("{x}"))
-            .collect();
-    v.join(",") + "\n"
 }

@@ -25,7 +25,7 @@ impl ServiceCore {
             .await?;
         let tare = Tare {
             around,
-            samples: samples.iter().map(|s| s.sample.clone()).collect(),
+            samples: samples.iter().map(|s| s.sample).collect(),
         };
         self.store
             .save_tare(Some(&tare))

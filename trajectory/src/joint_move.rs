@@ -1,4 +1,4 @@
-//! Jerk-limited joint interpolation for the moves the service commands itself.
+//! Jerk-limited straight-line joint moves with a stop (the moves the service commands itself).
 //!
 //! A move is a straight line in joint space, q(t) = q₀ + s(t)·Δ, with the path parameter s
 //! following a quintic rest-to-rest profile s(τ) = 10τ³ − 15τ⁴ + 6τ⁵, τ = t/T. Its peaks are
@@ -15,12 +15,7 @@
 
 use nalgebra::SVector;
 
-/// Peak |ds/dτ| of the quintic profile.
-const QUINTIC_PEAK_VEL: f64 = 15.0 / 8.0;
-/// Peak |d²s/dτ²| of the quintic profile (at τ = 1/2 ∓ √3/6).
-const QUINTIC_PEAK_ACC: f64 = 5.773_502_691_896_258; // 10/√3
-/// Peak |d³s/dτ³| of the quintic profile (at τ = 0 and 1).
-const QUINTIC_PEAK_JERK: f64 = 60.0;
+use crate::quintic::{JointSetpoint, PEAK_ACCELERATION, PEAK_JERK, PEAK_VELOCITY, quintic};
 
 /// Per-joint motion limits (all strictly positive).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -42,17 +37,6 @@ pub enum MotionError {
     /// A limit is zero or negative.
     #[error("limit {0} must be positive")]
     NonPositiveLimit(&'static str),
-}
-
-/// The state of a joint-space set-point at one instant.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct JointSetpoint<const N: usize> {
-    /// Position, rad.
-    pub position: SVector<f64, N>,
-    /// Velocity, rad/s.
-    pub velocity: SVector<f64, N>,
-    /// Acceleration, rad/s².
-    pub acceleration: SVector<f64, N>,
 }
 
 /// Scalar profile of the path parameter s(t).
@@ -137,9 +121,9 @@ impl<const N: usize> JointMove<N> {
         limits.validate()?;
         let delta = target - start;
         let (vs, as_, js) = limits.along(&delta);
-        let duration = (QUINTIC_PEAK_VEL / vs)
-            .max((QUINTIC_PEAK_ACC / as_).sqrt())
-            .max((QUINTIC_PEAK_JERK / js).cbrt());
+        let duration = (PEAK_VELOCITY / vs)
+            .max((PEAK_ACCELERATION / as_).sqrt())
+            .max((PEAK_JERK / js).cbrt());
         Ok(Self {
             start,
             delta,
@@ -186,12 +170,8 @@ impl<const N: usize> JointMove<N> {
                 if t <= 0.0 {
                     return (0.0, 0.0, 0.0);
                 }
-                let tau = t / duration;
-                let (t2, t3) = (tau * tau, tau * tau * tau);
-                let s = t3 * (10.0 - 15.0 * tau + 6.0 * t2);
-                let ds = 30.0 * t2 * (1.0 - 2.0 * tau + t2) / duration;
-                let dds = 60.0 * tau * (1.0 - 3.0 * tau + 2.0 * t2) / (duration * duration);
-                (s, ds, dds)
+                let (s, ds, dds) = quintic(t / duration);
+                (s, ds / duration, dds / (duration * duration))
             }
             Profile::Brake {
                 t0,

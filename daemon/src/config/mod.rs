@@ -1,0 +1,324 @@
+//! Service configuration: the TOML file given to `fri-service run --config FILE.toml`.
+//!
+//! Every section and key is optional and falls back to the documented default; unknown keys are
+//! rejected (serde `deny_unknown_fields`), and [`Config::validate`] rejects bad values with the
+//! key's dotted name and the reason, so a typo never silently runs the robot with defaults.
+//! The commented example lives at `daemon/config/fri-service.example.toml`.
+
+use std::net::{IpAddr, SocketAddr};
+use std::path::PathBuf;
+
+use serde::{Deserialize, Serialize};
+
+pub use fri_api::{DEFAULT_SOCKET, JOINTS};
+
+/// Errors while loading or validating the configuration.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file could not be read.
+    #[error("cannot read config file {path}: {source}")]
+    Read {
+        /// File that failed.
+        path: PathBuf,
+        /// Underlying I/O error.
+        source: std::io::Error,
+    },
+    /// The file is not valid TOML or has unknown keys / wrong types.
+    #[error("config file {path}: {message}")]
+    Parse {
+        /// File that failed.
+        path: PathBuf,
+        /// Parser message (names the key and line).
+        message: String,
+    },
+    /// A value is out of its allowed range.
+    #[error("config key `{key}`: {reason}")]
+    Invalid {
+        /// Dotted key name, e.g. `motion.max_velocity`.
+        key: String,
+        /// Why the value is rejected.
+        reason: String,
+    },
+}
+
+/// Whole service configuration.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct Config {
+    /// FRI UDP endpoint settings.
+    pub fri: FriConfig,
+    /// Robot model used by the observer and the estimator.
+    pub robot: RobotConfig,
+    /// Collision observer gains and thresholds.
+    pub observer: ObserverSettings,
+    /// What the service does when a collision is detected.
+    pub reaction: ReactionConfig,
+    /// Limits for moves the service commands itself (estimation poses, returns).
+    pub motion: MotionConfig,
+    /// Static-sample settling detection and averaging for `sample`, `tare`, `estimate-payload`.
+    pub estimation: EstimationConfig,
+    /// Operator socket.
+    pub operator: OperatorConfig,
+    /// Persistent state (applied payload, tare, calibration).
+    pub state: StateConfig,
+    /// iceoryx2 publication.
+    pub iceoryx2: IpcConfig,
+}
+
+/// FRI UDP endpoint settings.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct FriConfig {
+    /// Local address and UDP port the service listens on (default 0.0.0.0:49938).
+    pub bind: SocketAddr,
+    /// Only accept datagrams from this controller IP address (default: any).
+    pub controller: Option<IpAddr>,
+    /// Only accept datagrams from this controller UDP port, 1–65535 (default: any; the KRC
+    /// sends from its `FRISOCK` port, 49938).
+    pub controller_port: Option<u16>,
+    /// Silence of the bound controller after which a restart (any counter) or a new source
+    /// within the filter is accepted, s (default 1; max(0.01, 10 × cycle_s) to 10).
+    pub resync_after_s: f64,
+    /// Expected controller cycle, s (default 0.001; FRI allows 0.001–0.1).
+    pub cycle_s: f64,
+    /// Largest joint set-point change per cycle in command mode, rad (default 2e-4, well under
+    /// the controller's set-point jump limit); `motion.max_velocity × cycle_s` must not exceed it.
+    pub max_joint_step: f64,
+}
+
+impl Default for FriConfig {
+    fn default() -> Self {
+        Self {
+            bind: SocketAddr::from(([0, 0, 0, 0], 49938)),
+            controller: None,
+            controller_port: None,
+            resync_after_s: 1.0,
+            cycle_s: 0.001,
+            max_joint_step: 2.0e-4,
+        }
+    }
+}
+
+/// Robot model selection.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct RobotConfig {
+    /// Built-in model name; only `lwr4` (KUKA LWR 4+, 7 joints) is supported by the service.
+    pub model: String,
+}
+
+impl Default for RobotConfig {
+    fn default() -> Self {
+        Self {
+            model: "lwr4".to_owned(),
+        }
+    }
+}
+
+/// The `[observer]` section: collision observer (momentum residual, paper eq. 48) gains,
+/// thresholds and arming (the service's settings; `safety::ObserverConfig` is the observer's own).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct ObserverSettings {
+    /// Observer gains K_I per joint, 1/s (default `safety::DEFAULT_GAIN` = 400 on every joint).
+    pub gains: [f64; JOINTS],
+    /// Detection thresholds per joint, Nm (default 6, as in the paper's Fig. 6).
+    pub thresholds: [f64; JOINTS],
+    /// Whether the collision monitor is armed at start (default true).
+    pub armed: bool,
+}
+
+impl Default for ObserverSettings {
+    fn default() -> Self {
+        Self {
+            gains: [safety::DEFAULT_GAIN; JOINTS],
+            thresholds: [6.0; JOINTS],
+            armed: true,
+        }
+    }
+}
+
+/// `[reaction] policy`: what the service does on a detected collision (mapped onto
+/// `safety::ReactionPolicy` by the service; `report` does not react).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum ReactionMode {
+    /// Only report the event.
+    Report,
+    /// Stop (hold position) and wait for the operator's `resume`.
+    Stop,
+    /// Stop, wait `pause_s`, then resume automatically (the paper: 2 s).
+    Pause,
+}
+
+/// What the service does on a collision.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct ReactionConfig {
+    /// Reaction mode (default `stop`).
+    pub policy: ReactionMode,
+    /// Pause duration for the `pause` policy, s (default 2).
+    pub pause_s: f64,
+}
+
+impl Default for ReactionConfig {
+    fn default() -> Self {
+        Self {
+            policy: ReactionMode::Stop,
+            pause_s: 2.0,
+        }
+    }
+}
+
+/// Limits for service-commanded joint moves (conservative defaults, well under the LWR's limits).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct MotionConfig {
+    /// Maximum joint velocity per joint, rad/s (default 0.18; at most
+    /// `fri.max_joint_step / fri.cycle_s`, 0.2 rad/s with the defaults).
+    pub max_velocity: [f64; JOINTS],
+    /// Maximum joint acceleration per joint, rad/s² (default 1.0).
+    pub max_acceleration: [f64; JOINTS],
+    /// Maximum joint jerk per joint, rad/s³ (default 5.0).
+    pub max_jerk: [f64; JOINTS],
+    /// Largest distance of a pattern centre (`around`) from the measured pose, per joint, rad
+    /// (default 0.5; 0.01 to 1).
+    pub max_around_distance_rad: f64,
+}
+
+impl Default for MotionConfig {
+    fn default() -> Self {
+        Self {
+            max_velocity: [0.18; JOINTS],
+            max_acceleration: [1.0; JOINTS],
+            max_jerk: [5.0; JOINTS],
+            max_around_distance_rad: 0.5,
+        }
+    }
+}
+
+/// Settling detection and averaging of static samples.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct EstimationConfig {
+    /// Settled when every joint speed stays below this, rad/s (default 0.002).
+    pub settle_velocity: f64,
+    /// Settled when the torque standard deviation of every joint over the settle window is below
+    /// this, Nm (default 0.15).
+    pub settle_torque_std: f64,
+    /// Window over which settling is judged, s (default 0.1).
+    pub settle_window_s: f64,
+    /// Upper bound of the wait for settling after a move, s (default 1, the paper's wait).
+    pub settle_timeout_s: f64,
+    /// Averaging window of one static sample, s (default 0.5).
+    pub average_s: f64,
+    /// Increment of the paper's pose pattern, degrees (default 7).
+    pub pattern_step_deg: f64,
+    /// Number of poses of the pattern (default 10, as in the paper's Sec. VI-A).
+    pub pattern_poses: usize,
+}
+
+impl Default for EstimationConfig {
+    fn default() -> Self {
+        Self {
+            settle_velocity: 0.002,
+            settle_torque_std: 0.15,
+            settle_window_s: 0.1,
+            settle_timeout_s: 1.0,
+            average_s: 0.5,
+            pattern_step_deg: 7.0,
+            pattern_poses: 10,
+        }
+    }
+}
+
+/// Operator socket settings.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct OperatorConfig {
+    /// Unix socket path (default `/tmp/fri-service/operator.sock`).
+    pub socket: PathBuf,
+    /// User ids allowed to connect besides root and the service's own user (default none).
+    pub allowed_uids: Vec<u32>,
+    /// Group ids allowed to connect (default none).
+    pub allowed_gids: Vec<u32>,
+    /// Longest accepted request line, bytes (default 65536).
+    pub max_line_bytes: usize,
+    /// Most simultaneous clients (default 64).
+    pub max_clients: usize,
+    /// A connection with no request in flight that sends nothing for this long is closed, s
+    /// (default 30; 1 to 3600).
+    pub idle_timeout_s: f64,
+}
+
+impl Default for OperatorConfig {
+    fn default() -> Self {
+        Self {
+            socket: PathBuf::from(DEFAULT_SOCKET),
+            allowed_uids: Vec::new(),
+            allowed_gids: Vec::new(),
+            max_line_bytes: 65536,
+            max_clients: 64,
+            idle_timeout_s: 30.0,
+        }
+    }
+}
+
+/// Persistent state settings.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct StateConfig {
+    /// Directory for applied payload, tare and calibration (default `/tmp/fri-service/state`).
+    pub dir: PathBuf,
+    /// The only directory `record` writes to (default: `recordings` inside `dir`); requests
+    /// name a new file in it.
+    pub record_dir: Option<PathBuf>,
+}
+
+impl Default for StateConfig {
+    fn default() -> Self {
+        Self {
+            dir: PathBuf::from("/tmp/fri-service/state"),
+            record_dir: None,
+        }
+    }
+}
+
+impl StateConfig {
+    /// The recording directory: `record_dir`, or `recordings` inside `dir`.
+    pub fn record_dir(&self) -> PathBuf {
+        self.record_dir
+            .clone()
+            .unwrap_or_else(|| self.dir.join("recordings"))
+    }
+}
+
+/// iceoryx2 publication settings.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct IpcConfig {
+    /// Publish at all (default true).
+    pub enabled: bool,
+    /// Prefix of the service names, e.g. `lwr` gives `lwr/state` (default `fri-service`).
+    pub service_prefix: String,
+    /// iceoryx2 global prefix isolating this installation's shared-memory files (default
+    /// iceoryx2's own, `iox2_`).
+    pub global_prefix: Option<String>,
+}
+
+impl Default for IpcConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            service_prefix: "fri-service".to_owned(),
+            global_prefix: None,
+        }
+    }
+}
+
+mod validate;
+
+pub use validate::MAX_ALLOWED_IDS;
+
+#[cfg(test)]
+mod tests;

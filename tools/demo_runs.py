@@ -1,12 +1,12 @@
 #!/usr/bin/env python3
-"""Runs the README demo (`fri-service demo --json`, real time) N times and counts passes.
+"""Runs the README demo (`fri-demo demo --json`, real time) N times and counts passes.
 
 A run passes when it exits 0, detects all three contacts with the payload-compensated residual
 and raises no compensated false alarm. With --busy K, K busy loops (`sh -c 'while :; do :; done'`)
 load the cores for the whole series. Prints one line per run and a summary line
 `N passed, M failed`.
 
-    cargo build --release --bin fri-service
+    cargo build --release -p fri-demo
     python3 tools/demo_runs.py --runs 20             # idle
     python3 tools/demo_runs.py --runs 20 --busy 2    # both cores busy
 """
@@ -21,7 +21,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--runs", type=int, default=20, help="number of demo runs (1..1000)")
     ap.add_argument("--busy", type=int, default=0, help="busy loops running meanwhile (0..16)")
-    ap.add_argument("--binary", default="target/release/fri-service")
+    ap.add_argument("--binary", default="target/release/fri-demo")
     ap.add_argument("--first-seed", type=int, default=1)
     args = ap.parse_args()
     if not 1 <= args.runs <= 1000:

@@ -82,8 +82,14 @@ fn status_connected_and_disconnected() {
         "moving": false, "payload": null, "tare_samples": null,
         "monitor": {"armed": false, "thresholds": ([6.0; 7]), "gains": ([400.0; 7])},
     });
-    let s: StatusResult = round_trip(empty);
+    let s: StatusResult = round_trip(empty.clone());
     assert!(s.q.is_none() && s.fri.is_none());
+    // While the monitor warms up the residual is NaN, which JSON writes as null.
+    let mut warming = empty;
+    warming["q"] = json!(Q);
+    warming["residual"] = json!([null, null, null, null, null, null, null]);
+    let s: StatusResult = round_trip(warming);
+    assert!(s.residual.unwrap()[0].is_nan());
 }
 
 #[test]
@@ -239,6 +245,11 @@ fn watch_events_with_their_causes() {
     event(
         "state",
         json!({"cycle": 100u64, "time_s": 0.1, "q": Q, "tau": ([1.0; 7]), "residual": ([0.0; 7]), "flags": 5}),
+    );
+    event(
+        "state",
+        json!({"cycle": 101u64, "time_s": 0.101, "q": Q, "tau": ([1.0; 7]), "flags": 128,
+               "residual": [null, null, null, null, null, null, null]}),
     );
     assert!(Event::decode("fireworks", &json!({})).is_err());
 }

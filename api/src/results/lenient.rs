@@ -48,3 +48,18 @@ pub(crate) fn nan_matrix4<'de, D: Deserializer<'de>>(d: D) -> Result<[[f64; 4]; 
     }
     Ok(m)
 }
+
+/// An optional fixed-length array of floats, each `null` element read as NaN (`null` as a
+/// whole is `None`).
+pub(crate) fn opt_nan_array<'de, D: Deserializer<'de>, const N: usize>(
+    d: D,
+) -> Result<Option<[f64; N]>, D::Error> {
+    let Some(v) = Option::<Vec<Option<f64>>>::deserialize(d)? else {
+        return Ok(None);
+    };
+    let n = v.len();
+    let v: Vec<f64> = v.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect();
+    <[f64; N]>::try_from(v).map(Some).map_err(|_| {
+        serde::de::Error::invalid_length(n, &format!("an array of {N} numbers").as_str())
+    })
+}

@@ -21,6 +21,11 @@ mod stop;
 mod tare;
 mod watch;
 
+/// The FRI types inside [`FriStatus`], re-exported so clients need not depend on `fri`.
+pub use fri::session::{RejectionCounters, SessionStatistics};
+/// The controller's statistics inside [`FriStatus`] and [`crate::fri_context::FriContext`].
+pub use fri::wire::InterfaceStatistics;
+
 pub use collision::{CollisionResult, MonitorSettings};
 pub use estimate::{Correction, EstimateMethod, EstimateResult};
 pub use event::{Event, RawEvent};

@@ -5,6 +5,7 @@ use fri::wire::InterfaceStatistics;
 use serde::{Deserialize, Serialize};
 
 use super::collision::MonitorSettings;
+use super::lenient;
 use super::payload::AppliedPayload;
 
 /// Result of `status`. The state fields are `null` before the first measurement.
@@ -21,16 +22,22 @@ pub struct StatusResult {
     /// Controller time of the newest state, s since the service started.
     pub time_s: Option<f64>,
     /// Measured joint positions, rad (joints 1..7).
+    #[serde(deserialize_with = "lenient::opt_nan_array")]
     pub q: Option<[f64; 7]>,
     /// Filtered joint velocities, rad/s.
+    #[serde(deserialize_with = "lenient::opt_nan_array")]
     pub qd: Option<[f64; 7]>,
     /// Measured joint torques τ_J, Nm.
+    #[serde(deserialize_with = "lenient::opt_nan_array")]
     pub tau: Option<[f64; 7]>,
     /// Gravity torques of the model (with the applied payload), Nm.
+    #[serde(deserialize_with = "lenient::opt_nan_array")]
     pub gravity: Option<[f64; 7]>,
     /// The controller's external-torque estimate, Nm.
+    #[serde(deserialize_with = "lenient::opt_nan_array")]
     pub tau_ext: Option<[f64; 7]>,
-    /// Collision-observer residual, Nm.
+    /// Collision-observer residual, Nm (NaN, `null` in JSON, while the monitor warms up).
+    #[serde(deserialize_with = "lenient::opt_nan_array")]
     pub residual: Option<[f64; 7]>,
     /// The controller is in command mode.
     pub command_mode: bool,

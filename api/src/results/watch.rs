@@ -152,7 +152,8 @@ pub struct StateLine {
     pub q: [f64; 7],
     /// Measured joint torques τ_J, Nm.
     pub tau: [f64; 7],
-    /// Collision-observer residual, Nm.
+    /// Collision-observer residual, Nm (NaN, `null` in JSON, while the monitor warms up).
+    #[serde(deserialize_with = "crate::results::lenient::nan_array")]
     pub residual: [f64; 7],
     /// State flags (`fri_api::ipc::flags` bits).
     pub flags: u32,

@@ -53,7 +53,8 @@ pub enum Cause {
     },
     /// No measurement arrived for longer than the connection timeout.
     ControllerSilent {
-        /// Silence so far, s.
+        /// Silence so far, s (+∞, written as `null`, when no measurement ever arrived).
+        #[serde(deserialize_with = "crate::results::lenient::infinity")]
         silent_s: f64,
         /// The controller's view in its last measurement, if any.
         fri: Option<FriContext>,

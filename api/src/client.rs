@@ -2,6 +2,7 @@
 
 use std::path::Path;
 
+use serde::de::DeserializeOwned;
 use serde_json::Value;
 use tokio::io::AsyncWriteExt;
 use tokio::net::UnixStream;
@@ -9,6 +10,7 @@ use tokio::net::unix::{OwnedReadHalf, OwnedWriteHalf};
 
 use crate::frame::{Frame, LineReader};
 use crate::protocol::{Command, OperatorError, Reply, Request, RequestId};
+use crate::results::{Event, RawEvent};
 
 /// Longest reply line the client accepts, bytes (status replies are a few kB).
 const MAX_REPLY_LINE: usize = 16 * 1024 * 1024;
@@ -30,6 +32,16 @@ pub enum ClientError {
     /// The server sent something that is not a protocol reply.
     #[error("unexpected reply from the service: {0}")]
     Protocol(String),
+    /// The server's result does not decode into the expected typed result.
+    #[error("the service's result is not a {expected}: {error}")]
+    Schema {
+        /// The expected type's name.
+        expected: &'static str,
+        /// The decoding error.
+        error: String,
+        /// The result as sent.
+        raw: Value,
+    },
 }
 
 /// A connection to the service's operator socket.
@@ -113,6 +125,36 @@ impl Client {
                 // Lines of other requests on this connection are not ours.
                 _ => {}
             }
+        }
+    }
+
+    /// [`Client::call`] with typed events and a typed result `R` (one of [`crate::results`]):
+    /// events that do not decode reach `on_event` as [`RawEvent`]; a result that does not decode
+    /// is [`ClientError::Schema`] with the result as sent.
+    pub async fn call_typed<R: DeserializeOwned>(
+        &mut self,
+        command: Command,
+        mut on_event: impl FnMut(Result<Event, RawEvent>),
+    ) -> Result<Result<R, OperatorError>, ClientError> {
+        let reply = self
+            .call(command, |event, data| {
+                on_event(Event::decode(event, data).map_err(|e| RawEvent {
+                    event: event.to_owned(),
+                    data: data.clone(),
+                    error: e.to_string(),
+                }));
+            })
+            .await?;
+        match reply {
+            Ok(raw) => match R::deserialize(&raw) {
+                Ok(r) => Ok(Ok(r)),
+                Err(e) => Err(ClientError::Schema {
+                    expected: std::any::type_name::<R>(),
+                    error: e.to_string(),
+                    raw,
+                }),
+            },
+            Err(e) => Ok(Err(e)),
         }
     }
 }

@@ -15,6 +15,7 @@ pub mod fri_context;
 pub mod ipc;
 pub mod pattern;
 pub mod protocol;
+pub mod results;
 pub mod stdio;
 
 /// Joints of the LWR 4+ (the FRI datagram's joint count).

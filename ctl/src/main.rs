@@ -6,12 +6,15 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use fri_api::stdio::{Stdout, clap_exit, stderr_line};
 use fri_ctl::offline::{self, OfflineCommand};
-use fri_ctl::service::{self as ctl, EXIT_FAILED, OperatorCommand};
+use fri_ctl::service::{self as ctl, EXIT_FAILED, OperatorCommand, ServiceOptions};
 
 /// Command-line client of the KUKA LWR 4+ FRI service.
 #[derive(Debug, Parser)]
 #[command(name = "fri-ctl", version, about)]
 struct Cli {
+    /// Options of the service's commands (global: before or after the subcommand).
+    #[command(flatten)]
+    service: ServiceOptions,
     #[command(subcommand)]
     group: Group,
 }
@@ -48,7 +51,7 @@ fn main() -> ExitCode {
         },
         // Operator commands choose their own exit codes (see `fri_ctl::service`) and report
         // their own stdout failures.
-        Group::Operator(cmd) => return ExitCode::from(ctl::run(cmd, &mut out)),
+        Group::Operator(cmd) => return ExitCode::from(ctl::run(cmd, &cli.service, &mut out)),
     };
     // Flushes the last partial line; the first stdout failure of the run decides.
     match out.finish() {

@@ -26,6 +26,21 @@ async fn call(c: &mut Client, cmd: Command) -> Result<Value, OperatorError> {
     c.call(cmd, |_, _| {}).await.unwrap()
 }
 
+/// Calls `cmd`, decodes the result into `T` and checks that `T` serialises back to the JSON
+/// the daemon sent (the typed results of `fri_api::results` describe it exactly).
+async fn typed<T: serde::de::DeserializeOwned + serde::Serialize>(
+    c: &mut Client,
+    cmd: Command,
+) -> T {
+    let raw = call(c, cmd.clone())
+        .await
+        .unwrap_or_else(|e| panic!("{cmd:?}: {e}"));
+    let t: T = serde_json::from_value(raw.clone())
+        .unwrap_or_else(|e| panic!("{cmd:?} → {}: {e}\n{raw:#}", std::any::type_name::<T>()));
+    assert_eq!(serde_json::to_value(&t).unwrap(), raw, "{cmd:?}");
+    t
+}
+
 /// Waits until the service reports the controller connected (polls `status`).
 async fn wait_connected(c: &mut Client) {
     for _ in 0..500 {
@@ -128,6 +143,100 @@ async fn fri_ctl_record_prints_the_full_path_in_the_configured_directory() {
         "{stdout}"
     );
     assert!(full.exists());
+    drop(driver.join());
+    h.stop().await.unwrap();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_daemons_results_decode_into_the_typed_results() {
+    use fri_api::protocol::{CollisionAction, RecordKind};
+    use fri_api::results::*;
+    let dir = tempfile::tempdir().unwrap();
+    let mut config = local_config(dir.path(), "ctltyped");
+    config.iceoryx2.enabled = false;
+    config.state.record_dir = Some(dir.path().join("rec"));
+    // The mock carries a payload the monitor does not know of: armed, it would stop the arm
+    // before the sample below.
+    config.observer.armed = false;
+    let h = InProcess::start(config).await.unwrap();
+    let driver = controller(&h);
+    let mut c = h.client().await.unwrap();
+    wait_connected(&mut c).await;
+    let s: StatusResult = typed(&mut c, Command::Status).await;
+    assert!(s.connected && s.fri.is_some());
+    let disarm = Command::Collision {
+        action: CollisionAction::Disarm,
+        thresholds: None,
+        gains: None,
+    };
+    typed::<CollisionResult>(&mut c, disarm).await;
+    let s: SampleResult = typed(
+        &mut c,
+        Command::Sample {
+            duration_s: Some(0.02),
+        },
+    )
+    .await;
+    assert!(s.cycles > 0);
+    let p: PayloadResult = typed(
+        &mut c,
+        Command::ApplyPayload {
+            mass: 1.5,
+            com: [-0.0005, 0.0, 0.12],
+        },
+    )
+    .await;
+    assert_eq!(p.payload.unwrap().com[0], -0.0005);
+    let p: PayloadResult = typed(&mut c, Command::ClearPayload).await;
+    assert!(p.payload.is_none());
+    for action in [
+        CollisionAction::Show,
+        CollisionAction::Arm,
+        CollisionAction::Disarm,
+    ] {
+        typed::<CollisionResult>(
+            &mut c,
+            Command::Collision {
+                action,
+                thresholds: None,
+                gains: None,
+            },
+        )
+        .await;
+    }
+    let m: CollisionResult = typed(
+        &mut c,
+        Command::Collision {
+            action: CollisionAction::Configure,
+            thresholds: Some([8.0; 7]),
+            gains: None,
+        },
+    )
+    .await;
+    assert_eq!(m.thresholds, [8.0; 7]);
+    let r: RecordResult = typed(
+        &mut c,
+        Command::Record {
+            path: "typed.csv".into(),
+            kind: RecordKind::Log,
+            duration_s: Some(0.02),
+            count: None,
+        },
+    )
+    .await;
+    assert!(r.lost.is_some());
+    let st: StopResult = typed(&mut c, Command::Stop).await;
+    assert_eq!(st.controller, ControllerLink::Connected);
+    typed::<StatusResult>(&mut c, Command::Status).await;
+    let r: ResumeResult = typed(&mut c, Command::Resume).await;
+    assert!(!r.stopped);
+    // The typed call of the client decodes the same result.
+    let s = c
+        .call_typed::<StatusResult>(Command::Status, |_| {})
+        .await
+        .unwrap()
+        .unwrap();
+    assert!(s.connected);
     drop(driver.join());
     h.stop().await.unwrap();
 }

@@ -1,0 +1,86 @@
+//! `estimate-payload`: the static payload estimate (mass, centre of mass) with 1σ.
+
+use serde::{Deserialize, Serialize};
+
+use super::lenient;
+
+/// Result of `estimate-payload`. Standard deviations are 1σ from the fit's residual variance
+/// (sensor noise, not a systematic model error). A component the poses cannot determine is
+/// NaN (`null` in JSON).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EstimateResult {
+    /// Estimator formulation used.
+    pub method: EstimateMethod,
+    /// Model-error correction applied to Δτ (`tare` when the stored tare was subtracted).
+    pub correction: Correction,
+    /// Payload mass, kg.
+    #[serde(deserialize_with = "lenient::nan")]
+    pub mass: f64,
+    /// 1σ of the mass, kg.
+    #[serde(deserialize_with = "lenient::nan")]
+    pub mass_std: f64,
+    /// Centre of mass in frame 7 (last DH frame, at the wrist point), m.
+    #[serde(deserialize_with = "lenient::nan_array")]
+    pub com: [f64; 3],
+    /// 1σ of the CoM in frame 7, m.
+    #[serde(deserialize_with = "lenient::nan_array")]
+    pub com_std: [f64; 3],
+    /// Centre of mass in the flange frame, m.
+    #[serde(deserialize_with = "lenient::nan_array")]
+    pub com_flange: [f64; 3],
+    /// 1σ of the CoM in the flange frame, m.
+    #[serde(deserialize_with = "lenient::nan_array")]
+    pub com_flange_std: [f64; 3],
+    /// First moments m·c in frame 7, kg·m.
+    #[serde(deserialize_with = "lenient::nan_array")]
+    pub first_moment: [f64; 3],
+    /// 1σ of the first moments, kg·m.
+    #[serde(deserialize_with = "lenient::nan_array")]
+    pub first_moment_std: [f64; 3],
+    /// Covariance of (m, m·cx, m·cy, m·cz): kg², kg²·m, kg²·m².
+    #[serde(deserialize_with = "lenient::nan_matrix4")]
+    pub covariance: [[f64; 4]; 4],
+    /// RMS of the fit residual per joint (joint 1 first), Nm.
+    #[serde(deserialize_with = "lenient::nan_vec")]
+    pub residual_rms: Vec<f64>,
+    /// Residual standard deviation of the used equations, Nm.
+    #[serde(deserialize_with = "lenient::nan")]
+    pub residual_std: f64,
+    /// 2-norm condition number of the stacked regressor (dimensionless).
+    #[serde(deserialize_with = "lenient::nan")]
+    pub condition_number: f64,
+    /// Static samples (poses) used.
+    pub samples: usize,
+    /// Joints whose equations were used, 1-based.
+    pub joints_used: Vec<usize>,
+    /// The stored tare was subtracted sample by sample.
+    pub tare_used: bool,
+    /// Frame of `com`: always `"7"`.
+    pub frame: String,
+    /// Centre of the pose pattern, rad (joints 1..7).
+    pub around: [f64; 7],
+    /// The estimate was applied to the observer and persisted.
+    pub applied: bool,
+}
+
+/// Formulation of the static estimator (`estimator::estimate::Method`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum EstimateMethod {
+    /// Least squares on the payload gravity regressor.
+    Direct,
+    /// The paper's route through the gravity coefficients (eqs. 26–28).
+    Coefficients,
+}
+
+/// How the controller's model error was removed (`estimator::estimate::Correction`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Correction {
+    /// None: Δτ = τ_J − g_ctrl.
+    None,
+    /// Tare: Δτ = τ_J(loaded) − τ_J(unloaded) at the same poses.
+    Tare,
+    /// A stored model-error calibration.
+    Calibration,
+}

@@ -1,0 +1,43 @@
+//! Typed results of the operator commands and typed payloads of the events streamed before
+//! them: exactly the JSON the daemon sends (`{"id":…,"ok":true,"result":{…}}` and
+//! `{"id":…,"event":"…","data":{…}}`), one file per command.
+//!
+//! Every type is `Serialize + Deserialize` and round-trips the daemon's JSON unchanged (see
+//! `api/tests/results.rs`). Decoding is lenient towards new fields (they are ignored) and
+//! towards `null` where the daemon writes a non-finite float (serde_json writes NaN and ±∞ as
+//! `null`): such fields read back as NaN or +∞ as documented on the field.
+
+mod collision;
+mod estimate;
+mod event;
+pub(crate) mod lenient;
+mod payload;
+mod progress;
+mod record;
+mod resume;
+mod sample;
+mod status;
+mod stop;
+mod tare;
+mod watch;
+
+/// The FRI types inside [`FriStatus`], re-exported so clients need not depend on `fri`.
+pub use fri::session::{RejectionCounters, SessionStatistics};
+/// The controller's statistics inside [`FriStatus`] and [`crate::fri_context::FriContext`].
+pub use fri::wire::InterfaceStatistics;
+
+pub use collision::{CollisionResult, MonitorSettings};
+pub use estimate::{Correction, EstimateMethod, EstimateResult};
+pub use event::{Event, RawEvent};
+pub use payload::{AppliedPayload, PayloadResult};
+pub use progress::{Phase, Progress, Workflow};
+pub use record::RecordResult;
+pub use resume::ResumeResult;
+pub use sample::SampleResult;
+pub use status::{FriStatus, StatusResult};
+pub use stop::{ControllerLink, StopResult};
+pub use tare::TareResult;
+pub use watch::{
+    AbortReason, CollisionDetected, MonitorRestarted, MoveAborted, Resumed, ResyncReason,
+    StateLine, StopCause, StopKind, Stopped, WatchResult,
+};

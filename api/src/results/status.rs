@@ -1,0 +1,79 @@
+//! `status`: the controller link, the newest published state, payload and monitor.
+
+use fri::session::SessionStatistics;
+use fri::wire::InterfaceStatistics;
+use serde::{Deserialize, Serialize};
+
+use super::collision::MonitorSettings;
+use super::lenient;
+use super::payload::AppliedPayload;
+
+/// Result of `status`. The state fields are `null` before the first measurement.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StatusResult {
+    /// A measurement arrived within the connection timeout (100 ms or ten controller cycles).
+    pub connected: bool,
+    /// The collision monitor's residual is valid (false while it warms up after a (re)start).
+    pub residual_valid: bool,
+    /// The FRI endpoint's view (`null` when the service runs without an endpoint snapshot).
+    pub fri: Option<FriStatus>,
+    /// Loop cycle of the newest published state.
+    pub cycle: Option<u64>,
+    /// Controller time of the newest state, s since the service started.
+    pub time_s: Option<f64>,
+    /// Measured joint positions, rad (joints 1..7).
+    #[serde(deserialize_with = "lenient::opt_nan_array")]
+    pub q: Option<[f64; 7]>,
+    /// Filtered joint velocities, rad/s.
+    #[serde(deserialize_with = "lenient::opt_nan_array")]
+    pub qd: Option<[f64; 7]>,
+    /// Measured joint torques τ_J, Nm.
+    #[serde(deserialize_with = "lenient::opt_nan_array")]
+    pub tau: Option<[f64; 7]>,
+    /// Gravity torques of the model (with the applied payload), Nm.
+    #[serde(deserialize_with = "lenient::opt_nan_array")]
+    pub gravity: Option<[f64; 7]>,
+    /// The controller's external-torque estimate, Nm.
+    #[serde(deserialize_with = "lenient::opt_nan_array")]
+    pub tau_ext: Option<[f64; 7]>,
+    /// Collision-observer residual, Nm (NaN, `null` in JSON, while the monitor warms up).
+    #[serde(deserialize_with = "lenient::opt_nan_array")]
+    pub residual: Option<[f64; 7]>,
+    /// The controller is in command mode.
+    pub command_mode: bool,
+    /// The arm is held (operator stop or collision reaction).
+    pub stopped: bool,
+    /// A collision reaction is active.
+    pub collision: bool,
+    /// The collision monitor reports a fault.
+    pub observer_fault: bool,
+    /// A commanded move is running.
+    pub moving: bool,
+    /// The payload applied to the observer (`null`: none).
+    pub payload: Option<AppliedPayload>,
+    /// Static samples of the stored tare (`null`: no tare stored).
+    pub tare_samples: Option<usize>,
+    /// Collision-monitor settings.
+    pub monitor: MonitorSettings,
+}
+
+/// The FRI endpoint's snapshot as `status` reports it (enum values as their Rust names).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FriStatus {
+    /// A measurement has been accepted since the start.
+    pub valid: bool,
+    /// FRI interface state: `Invalid`, `Off`, `Monitor`, `Command` or `Unknown(n)`.
+    pub state: String,
+    /// Communication quality: `Invalid`, `Unacceptable`, `Bad`, `Ok`, `Perfect` or `Unknown(n)`.
+    pub quality: String,
+    /// The KRL program's status (`fri::handshake::KrlStatus` name).
+    pub krl_status: String,
+    /// The KRL program's reason of the last drop to monitor mode (`DropReason` name).
+    pub drop_reason: String,
+    /// Cycles completed by the endpoint.
+    pub cycles: u64,
+    /// The session's counters (received, accepted, rejected by reason, sequence, timing in s).
+    pub statistics: SessionStatistics,
+    /// The controller's statistics of our answers (rates 0…1, latency and jitter in s).
+    pub controller_statistics: InterfaceStatistics,
+}

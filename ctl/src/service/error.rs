@@ -1,0 +1,147 @@
+//! Operator errors as text: the code, the message, and the typed cause with the controller's
+//! view at the time (`fri_api::cause::Cause`).
+
+use fri_api::cause::Cause;
+use fri_api::fri_context::FriContext;
+use fri_api::protocol::{ErrorCode, OperatorError};
+
+use super::format::{fixed, ms, percent};
+
+/// The stable name of an error code (as in the JSON).
+pub(crate) fn code_name(code: ErrorCode) -> String {
+    serde_json::to_value(code)
+        .ok()
+        .and_then(|v| v.as_str().map(str::to_owned))
+        .unwrap_or_else(|| format!("{code:?}"))
+}
+
+/// The lines of an error report: `error (<code>): <message>`, then the cause and the
+/// controller's view, indented.
+pub(crate) fn lines(e: &OperatorError) -> Vec<String> {
+    let mut lines = vec![format!("error ({}): {}", code_name(e.code), e.message)];
+    if let Some(cause) = &e.cause {
+        lines.extend(cause_lines(cause).into_iter().map(|l| format!("  {l}")));
+    }
+    lines
+}
+
+/// The cause in words, with its values and units.
+fn cause_lines(cause: &Cause) -> Vec<String> {
+    let residual = |r: &[f64; 7]| {
+        let v: Vec<String> = r.iter().map(|x| fixed(*x, 2)).collect();
+        format!("residual at the onset [Nm], j1..j7: {}", v.join(" "))
+    };
+    match cause {
+        Cause::Collision {
+            link,
+            time_s,
+            residual: r,
+        } => vec![
+            format!(
+                "cause: contact detected on link {link} at t = {} s (arm held; `fri-ctl resume` to continue)",
+                fixed(*time_s, 3)
+            ),
+            residual(r),
+        ],
+        Cause::ResidualChange {
+            joint,
+            change_nm,
+            limit_nm,
+        } => vec![format!(
+            "cause: the residual of joint {joint} changed by {} Nm, more than the workflow limit of ±{} Nm (contact or an unexpected payload?)",
+            fixed(*change_nm, 2),
+            fixed(*limit_nm, 2)
+        )],
+        Cause::OperatorStop => {
+            vec!["cause: stopped by the operator (`fri-ctl resume` releases the arm)".to_owned()]
+        }
+        Cause::Held => vec![
+            "cause: the arm is held by a stop or a collision reaction; `fri-ctl resume` first"
+                .to_owned(),
+        ],
+        Cause::ObserverFault { fault, fri } => vec![
+            format!("cause: the collision monitor faulted: {fault}"),
+            controller(fri),
+        ],
+        Cause::CommandModeLost { retries, fri } => vec![
+            format!(
+                "cause: the controller left command mode and stayed out after {retries} retries"
+            ),
+            controller(fri),
+        ],
+        Cause::ControllerRestarted { fri } => {
+            vec![
+                "cause: the controller restarted".to_owned(),
+                controller(fri),
+            ]
+        }
+        Cause::ControllerSilent { silent_s, fri } => {
+            let silence = if silent_s.is_finite() {
+                format!("no measurement for {} s", fixed(*silent_s, 3))
+            } else {
+                "no measurement has arrived yet (is the KRL program running and FRI open?)"
+                    .to_owned()
+            };
+            let mut v = vec![format!("cause: the controller is silent: {silence}")];
+            v.extend(fri.as_ref().map(|f| format!("last {}", controller(f))));
+            v
+        }
+        Cause::CommandModeNotEntered { fri } => {
+            let mut v = vec![
+                "cause: the controller did not enter command mode in time (check the KRL program, quality and drives)".to_owned(),
+            ];
+            v.extend(fri.as_ref().map(controller));
+            v
+        }
+    }
+}
+
+/// The controller's view in one line.
+pub(crate) fn controller(f: &FriContext) -> String {
+    format!(
+        "controller: state {:?}, quality {:?}, answer rate {}, latency {}, {} missed answers in total; KRL status {:?}, last drop to monitor mode: {:?}",
+        f.state,
+        f.quality,
+        percent(f.statistics.answer_rate),
+        ms(f.statistics.latency, 2),
+        f.statistics.miss_counter,
+        f.krl.status,
+        f.krl.drop_reason
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_collision_error_names_link_time_and_residual() {
+        let e = OperatorError::new(
+            ErrorCode::Aborted,
+            "collision detected (link 4) at 12.345 s",
+        )
+        .with_cause(Cause::Collision {
+            link: 4,
+            time_s: 12.3456,
+            residual: [0.0, 0.0, 1.0, 7.25, 0.0, 0.0, 0.0],
+        });
+        let text = lines(&e).join("\n");
+        assert!(
+            text.starts_with("error (aborted): collision detected"),
+            "{text}"
+        );
+        assert!(text.contains("link 4 at t = 12.346 s"), "{text}");
+        assert!(text.contains("7.25"), "{text}");
+    }
+
+    #[test]
+    fn a_silent_controller_since_the_start() {
+        let e = OperatorError::new(ErrorCode::NotReady, "no measurement").with_cause(
+            Cause::ControllerSilent {
+                silent_s: f64::INFINITY,
+                fri: None,
+            },
+        );
+        assert!(lines(&e)[1].contains("no measurement has arrived yet"));
+    }
+}

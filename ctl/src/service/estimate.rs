@@ -1,0 +1,162 @@
+//! `fri-ctl estimate-payload`: the pose pattern driven with the payload, and its estimate.
+
+use std::io::{self, Write};
+
+use clap::Args;
+
+use fri_api::protocol::Command;
+use fri_api::results::{Correction, EstimateMethod, EstimateResult};
+
+use super::JsonFlag;
+use super::format::{fixed, joint_header, joint_row, joint_row_deg, xyz_mm};
+use super::pattern::PatternArgs;
+use super::runner::Operation;
+
+/// Long help of `estimate-payload`.
+pub(super) const HELP: &str = "\
+Drive the pose pattern WITH the payload, estimate its mass and centre of mass from the static \
+samples (least squares on the payload gravity regressor) and print them with 1σ \
+uncertainties: mass in kg, centre of mass in mm in frame 7 (the last DH frame, at the wrist \
+point) and in the flange frame. With `--apply` the estimate is applied to the collision \
+observer and persisted, as `apply-payload` would.
+
+THE ARM MOVES: the service enters command mode and drives every pose of the pattern (at most \
+±step per joint around the centre), settles and samples at each, then returns to the start \
+pose. Keep the workspace clear; `fri-ctl stop` (from another terminal) holds the arm and \
+aborts the workflow. A residual change of more than twice a joint's threshold between poses \
+(a contact) stops the arm.
+
+The stored tare is subtracted when it was taken over the same poses (`--tare true` insists, \
+`--tare false` refuses it).";
+
+/// `fri-ctl estimate-payload`.
+#[derive(Debug, Clone, Args)]
+pub struct EstimateArgs {
+    /// Pose pattern.
+    #[command(flatten)]
+    pub pattern: PatternArgs,
+    /// Subtract the stored tare: true or false (default: when it was taken at the same poses).
+    #[arg(long, value_name = "BOOL")]
+    pub tare: Option<bool>,
+    /// Apply the estimate to the collision observer and persist it.
+    #[arg(long)]
+    pub apply: bool,
+    /// Output format.
+    #[command(flatten)]
+    pub output: JsonFlag,
+}
+
+impl Operation for EstimateArgs {
+    type Output = EstimateResult;
+
+    fn request(&self) -> Result<Command, String> {
+        Ok(Command::EstimatePayload {
+            around: self.pattern.around()?,
+            poses: self.pattern.poses,
+            step_deg: self.pattern.step_deg,
+            pattern: self.pattern.kind(),
+            use_tare: self.tare,
+            apply: Some(self.apply),
+        })
+    }
+
+    fn json(&self) -> bool {
+        self.output.json
+    }
+
+    fn shows_progress(&self) -> bool {
+        true
+    }
+
+    fn print(&self, r: &EstimateResult, out: &mut dyn Write) -> io::Result<()> {
+        print(r, out)
+    }
+}
+
+/// Writes the human-readable estimate.
+pub(super) fn print(r: &EstimateResult, out: &mut dyn Write) -> io::Result<()> {
+    // Mass to 0.1 g, centre of mass to 0.01 mm, each with its 1σ.
+    writeln!(
+        out,
+        "mass           {} kg ± {} kg (1σ)",
+        fixed(r.mass, 4),
+        fixed(r.mass_std, 4)
+    )?;
+    writeln!(out, "com frame {}    [mm] {}", r.frame, xyz_mm(&r.com, 2))?;
+    writeln!(out, "         ± 1σ  [mm] {}", xyz_mm(&r.com_std, 2))?;
+    writeln!(out, "com flange     [mm] {}", xyz_mm(&r.com_flange, 2))?;
+    writeln!(out, "         ± 1σ  [mm] {}", xyz_mm(&r.com_flange_std, 2))?;
+    let method = match r.method {
+        EstimateMethod::Direct => "direct least squares",
+        EstimateMethod::Coefficients => "gravity-coefficient route",
+    };
+    let correction = match (r.tare_used, r.correction) {
+        (true, _) | (_, Correction::Tare) => "stored tare subtracted",
+        (false, Correction::Calibration) => "model-error calibration",
+        (false, Correction::None) => {
+            "none (no matching tare: biased by the controller's model error)"
+        }
+    };
+    writeln!(
+        out,
+        "fit            {} samples, {method}, condition number {}, residual σ {} Nm",
+        r.samples,
+        fixed(r.condition_number, 1),
+        fixed(r.residual_std, 3)
+    )?;
+    writeln!(out, "correction     {correction}")?;
+    joint_header(out)?;
+    joint_row_deg(out, "around", &r.around, 2)?;
+    if let Ok(rms) = <[f64; 7]>::try_from(r.residual_rms.as_slice()) {
+        joint_row(out, "fit RMS", "Nm", &rms, 3)?;
+    }
+    let applied = if r.applied {
+        "applied to the collision observer (persisted)"
+    } else {
+        "NOT applied (use --apply or `fri-ctl apply-payload`)"
+    };
+    writeln!(out, "payload        {applied}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mass_to_a_tenth_of_a_gram_and_com_in_mm_with_sigma() {
+        let r = EstimateResult {
+            method: EstimateMethod::Direct,
+            correction: Correction::Tare,
+            mass: 3.028_14,
+            mass_std: 0.000_42,
+            com: [0.000_1, -0.000_2, 0.119_04],
+            com_std: [0.000_3; 3],
+            com_flange: [0.0, 0.0, 0.04],
+            com_flange_std: [0.000_3; 3],
+            first_moment: [0.0; 3],
+            first_moment_std: [0.0; 3],
+            covariance: [[0.0; 4]; 4],
+            residual_rms: vec![0.01; 7],
+            residual_std: 0.012,
+            condition_number: 12.54,
+            samples: 6,
+            joints_used: vec![1, 2, 3, 4, 5, 6, 7],
+            tare_used: true,
+            frame: "7".into(),
+            around: [0.0; 7],
+            applied: false,
+        };
+        let mut out = Vec::new();
+        print(&r, &mut out).unwrap();
+        let text = String::from_utf8(out).unwrap();
+        assert!(
+            text.contains("mass           3.0281 kg ± 0.0004 kg (1σ)"),
+            "{text}"
+        );
+        assert!(text.contains("z +119.04"), "{text}");
+        assert!(
+            text.contains("stored tare subtracted") && text.contains("NOT applied"),
+            "{text}"
+        );
+    }
+}

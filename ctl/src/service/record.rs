@@ -1,0 +1,92 @@
+//! `fri-ctl record`: static samples or a per-cycle log to a new CSV file of the service.
+
+use std::io::{self, Write};
+
+use clap::{Args, ValueEnum};
+
+use fri_api::protocol::{Command, RecordKind};
+use fri_api::results::RecordResult;
+
+use super::JsonFlag;
+use super::runner::Operation;
+
+/// Long help of `record`.
+pub(super) const HELP: &str = "\
+Record to a new CSV file in the service's recording directory (`state.record_dir`) and print \
+its full path. The arm does not move.
+
+`--kind log` (default) writes every cycle for `--duration` seconds (0.001…3600, default 1): \
+cycle, time (s), flags, then q (rad), q̇ (rad/s), τ_J, gravity, τ_ext and residual (Nm) per \
+joint. `--kind samples` takes `--count` averaged static samples at the current pose \
+(1…1000, default 1) in the static-sample format q1..q7 (rad), tau1..tau7, g1..g7 (Nm) that \
+`fri-ctl offline estimate` reads.
+
+The name is a file name, not a path: 1 to 255 characters of A-Z a-z 0-9 . _ -, not starting \
+with `.` or `-`; an existing file is never overwritten.";
+
+/// Record kinds on the command line.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum RecordArg {
+    /// Averaged static samples (static-sample CSV).
+    Samples,
+    /// Every cycle.
+    Log,
+}
+
+/// `fri-ctl record`.
+#[derive(Debug, Clone, Args)]
+pub struct RecordArgs {
+    /// File name in the recording directory (A-Z a-z 0-9 . _ -, no `/`; must not exist yet).
+    pub name: String,
+    /// What to record.
+    #[arg(long, value_enum, default_value = "log")]
+    pub kind: RecordArg,
+    /// Log length, s: 0.001…3600 (with `--kind log`; default 1).
+    #[arg(long, value_name = "SECONDS")]
+    pub duration: Option<f64>,
+    /// Number of static samples: 1…1000 (with `--kind samples`; default 1).
+    #[arg(long)]
+    pub count: Option<usize>,
+    /// Output format.
+    #[command(flatten)]
+    pub output: JsonFlag,
+}
+
+impl Operation for RecordArgs {
+    type Output = RecordResult;
+
+    fn request(&self) -> Result<Command, String> {
+        Ok(Command::Record {
+            path: self.name.clone(),
+            kind: match self.kind {
+                RecordArg::Samples => RecordKind::Samples,
+                RecordArg::Log => RecordKind::Log,
+            },
+            duration_s: self.duration,
+            count: self.count,
+        })
+    }
+
+    fn json(&self) -> bool {
+        self.output.json
+    }
+
+    fn shows_progress(&self) -> bool {
+        true
+    }
+
+    fn print(&self, r: &RecordResult, out: &mut dyn Write) -> io::Result<()> {
+        let what = match self.kind {
+            RecordArg::Samples => "static-sample",
+            RecordArg::Log => "per-cycle",
+        };
+        writeln!(out, "recorded {} rows to {} ({what} CSV)", r.rows, r.path)?;
+        match r.lost {
+            Some(n) if n > 0 => writeln!(
+                out,
+                "warning: {n} cycles lost (the recorder fell behind): the log has gaps"
+            ),
+            _ => Ok(()),
+        }
+    }
+}

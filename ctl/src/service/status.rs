@@ -1,0 +1,221 @@
+//! `fri-ctl status`: the controller link, the measured state, the payload and the monitor.
+
+use std::io::{self, Write};
+
+use clap::Args;
+
+use fri_api::protocol::Command;
+use fri_api::results::{RejectionCounters, StatusResult};
+
+use super::JsonFlag;
+use super::format::{fixed, joint_header, joint_row, joint_row_deg, ms, percent, xyz_mm, yes_no};
+use super::runner::Operation;
+
+/// Long help of `status`.
+pub(super) const HELP: &str = "\
+Controller link, measured state, residual, payload and collision monitor (read only; the arm \
+does not move).
+
+Shows whether the controller is connected (a measurement within 100 ms, or ten controller \
+cycles), the FRI state and quality with the KRL program's report, rejected datagrams by \
+reason, the controller's statistics of our answers, and per joint: positions (deg and rad), \
+velocities (deg/s), measured torques τ_J, model gravity, the controller's external-torque \
+estimate and the collision-observer residual (Nm). Then the applied payload (kg, mm in \
+frame 7), the stored tare and the monitor's thresholds (Nm) and gains (1/s).";
+
+/// `fri-ctl status`.
+#[derive(Debug, Clone, Args)]
+pub struct StatusArgs {
+    /// Output format.
+    #[command(flatten)]
+    pub output: JsonFlag,
+}
+
+impl Operation for StatusArgs {
+    type Output = StatusResult;
+
+    fn request(&self) -> Result<Command, String> {
+        Ok(Command::Status)
+    }
+
+    fn json(&self) -> bool {
+        self.output.json
+    }
+
+    fn print(&self, r: &StatusResult, out: &mut dyn Write) -> io::Result<()> {
+        print(r, out)
+    }
+}
+
+/// Writes the human-readable status.
+pub(super) fn print(r: &StatusResult, out: &mut dyn Write) -> io::Result<()> {
+    let link = if r.connected {
+        "connected"
+    } else {
+        "NOT connected (no measurement within the timeout)"
+    };
+    writeln!(out, "controller     {link}")?;
+    if let Some(f) = &r.fri {
+        writeln!(
+            out,
+            "fri            state {}, quality {}; KRL {} (last drop to monitor mode: {})",
+            f.state, f.quality, f.krl_status, f.drop_reason
+        )?;
+        let c = &f.controller_statistics;
+        writeln!(
+            out,
+            "answers        rate {}, latency {}, jitter {}, missed {} in total ({} of the last 100)",
+            percent(c.answer_rate),
+            ms(c.latency, 2),
+            ms(c.jitter, 2),
+            c.miss_counter,
+            percent(c.miss_rate)
+        )?;
+        rejections(&f.statistics.rejections, out)?;
+    }
+    match (r.cycle, r.time_s) {
+        (Some(cycle), Some(t)) => writeln!(out, "cycle          {cycle}  t = {} s", fixed(t, 3))?,
+        _ => writeln!(out, "cycle          none (no measurement yet)")?,
+    }
+    writeln!(
+        out,
+        "flags          command mode {}, moving {}, stopped {}, collision {}, observer fault {}, residual valid {}",
+        yes_no(r.command_mode),
+        yes_no(r.moving),
+        yes_no(r.stopped),
+        yes_no(r.collision),
+        yes_no(r.observer_fault),
+        yes_no(r.residual_valid)
+    )?;
+    if let Some(q) = &r.q {
+        joint_header(out)?;
+        joint_row_deg(out, "q", q, 2)?;
+        joint_row(out, "q", "rad", q, 4)?;
+        let rows = [
+            ("qd", &r.qd),
+            ("tau_J", &r.tau),
+            ("gravity", &r.gravity),
+            ("tau_ext", &r.tau_ext),
+            ("residual", &r.residual),
+        ];
+        for (label, values) in rows {
+            match (label, values) {
+                ("qd", Some(v)) => joint_row(out, label, "deg/s", &v.map(f64::to_degrees), 2)?,
+                (_, Some(v)) => joint_row(out, label, "Nm", v, 2)?,
+                _ => {}
+            }
+        }
+    }
+    match &r.payload {
+        Some(p) => writeln!(
+            out,
+            "payload        {} kg, centre of mass [mm] {} in frame {}",
+            fixed(p.mass, 4),
+            xyz_mm(&p.com, 2),
+            p.frame
+        )?,
+        None => writeln!(out, "payload        none")?,
+    }
+    match r.tare_samples {
+        Some(n) => writeln!(out, "tare           {n} samples stored")?,
+        None => writeln!(out, "tare           none")?,
+    }
+    let m = &r.monitor;
+    writeln!(
+        out,
+        "monitor        {}",
+        if m.armed {
+            "ARMED (a contact stops the arm)"
+        } else {
+            "disarmed (residual computed, no reaction)"
+        }
+    )?;
+    joint_header(out)?;
+    joint_row(out, "threshold", "Nm", &m.thresholds, 2)?;
+    joint_row(out, "gain", "1/s", &m.gains, 1)
+}
+
+/// The session's rejected datagrams by reason, non-zero ones only, largest first.
+fn rejections(counters: &RejectionCounters, out: &mut dyn Write) -> io::Result<()> {
+    let Ok(serde_json::Value::Object(map)) = serde_json::to_value(counters) else {
+        return Ok(());
+    };
+    let mut nonzero: Vec<(String, u64)> = map
+        .into_iter()
+        .filter_map(|(k, v)| v.as_u64().filter(|n| *n > 0).map(|n| (k, n)))
+        .collect();
+    if nonzero.is_empty() {
+        return writeln!(out, "rejected       none");
+    }
+    nonzero.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    let total = nonzero.iter().fold(0u64, |t, (_, n)| t.saturating_add(*n));
+    let list: Vec<String> = nonzero.iter().map(|(k, n)| format!("{k} {n}")).collect();
+    writeln!(out, "rejected       {total} datagrams: {}", list.join(", "))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn text(r: &StatusResult) -> String {
+        let mut out = Vec::new();
+        print(r, &mut out).unwrap();
+        String::from_utf8(out).unwrap()
+    }
+
+    fn status(rejections: serde_json::Value) -> StatusResult {
+        let mut statistics =
+            serde_json::to_value(fri_api::results::SessionStatistics::default()).unwrap();
+        statistics["rejections"] = rejections;
+        serde_json::from_value(json!({
+            "connected": true, "residual_valid": true,
+            "fri": {"valid": true, "state": "Monitor", "quality": "Perfect", "krl_status": "x",
+                    "drop_reason": "None", "cycles": 5, "statistics": statistics,
+                    "controller_statistics": fri_api::results::InterfaceStatistics::default()},
+            "cycle": 5, "time_s": 0.005, "q": ([0.5; 7]), "qd": ([0.0; 7]), "tau": ([1.0; 7]),
+            "gravity": ([1.0; 7]), "tau_ext": ([0.0; 7]), "residual": ([-0.001; 7]),
+            "command_mode": false, "stopped": true, "collision": false, "observer_fault": false,
+            "moving": false, "payload": null, "tare_samples": null,
+            "monitor": {"armed": true, "thresholds": ([6.0; 7]), "gains": ([400.0; 7])},
+        }))
+        .unwrap()
+    }
+
+    fn zero_rejections() -> serde_json::Value {
+        serde_json::to_value(RejectionCounters::default()).unwrap()
+    }
+
+    #[test]
+    fn status_shows_the_non_zero_rejection_counters() {
+        let mut counters = zero_rejections();
+        counters["truncated"] = json!(2);
+        counters["unexpected_source"] = json!(40);
+        let text = text(&status(counters));
+        let line = text
+            .lines()
+            .find(|l| l.starts_with("rejected"))
+            .unwrap_or_else(|| panic!("no rejection line in\n{text}"));
+        assert!(line.contains("42 datagrams"), "{line}");
+        assert!(
+            line.contains("unexpected_source 40") && line.contains("truncated 2"),
+            "{line}"
+        );
+        assert!(
+            !line.contains("duplicate") && !line.contains("empty"),
+            "{line}"
+        );
+    }
+
+    #[test]
+    fn status_says_none_rejected_and_shows_units_and_words() {
+        let text = text(&status(zero_rejections()));
+        assert!(text.contains("rejected       none"), "{text}");
+        assert!(text.contains("q [deg]") && text.contains("28.65"), "{text}");
+        assert!(
+            text.contains("residual [Nm]") && text.contains("stopped yes"),
+            "{text}"
+        );
+        assert!(!text.contains("-0.00"), "{text}");
+    }
+}

@@ -1,0 +1,70 @@
+//! `fri-ctl tare`: the pose pattern driven without payload, stored as tare.
+
+use std::io::{self, Write};
+
+use clap::Args;
+
+use fri_api::protocol::Command;
+use fri_api::results::TareResult;
+
+use super::JsonFlag;
+use super::format::{joint_header, joint_row, joint_row_deg};
+use super::pattern::PatternArgs;
+use super::runner::Operation;
+
+/// Long help of `tare`.
+pub(super) const HELP: &str = "\
+Drive the pose pattern WITHOUT payload and store the samples as tare: a later \
+`estimate-payload` over the same poses subtracts them (Δτ = τ_J(loaded) − τ_J(unloaded)), \
+which cancels the controller's gravity-model error. Remove the payload first.
+
+THE ARM MOVES: the service enters command mode and drives every pose of the pattern (at most \
+±step per joint around the centre), settles and samples at each, then returns to the start \
+pose. Keep the workspace clear; `fri-ctl stop` (from another terminal) holds the arm and \
+aborts the workflow. A residual change of more than twice a joint's threshold between poses \
+(a contact) stops the arm.
+
+Prints the number of stored samples and the pattern's centre (deg and rad).";
+
+/// `fri-ctl tare`.
+#[derive(Debug, Clone, Args)]
+pub struct TareArgs {
+    /// Pose pattern.
+    #[command(flatten)]
+    pub pattern: PatternArgs,
+    /// Output format.
+    #[command(flatten)]
+    pub output: JsonFlag,
+}
+
+impl Operation for TareArgs {
+    type Output = TareResult;
+
+    fn request(&self) -> Result<Command, String> {
+        Ok(Command::Tare {
+            around: self.pattern.around()?,
+            poses: self.pattern.poses,
+            step_deg: self.pattern.step_deg,
+            pattern: self.pattern.kind(),
+        })
+    }
+
+    fn json(&self) -> bool {
+        self.output.json
+    }
+
+    fn shows_progress(&self) -> bool {
+        true
+    }
+
+    fn print(&self, r: &TareResult, out: &mut dyn Write) -> io::Result<()> {
+        writeln!(
+            out,
+            "tare stored    {} samples (one per pose), centre:",
+            r.samples
+        )?;
+        joint_header(out)?;
+        joint_row_deg(out, "around", &r.around, 2)?;
+        joint_row(out, "around", "rad", &r.around, 4)
+    }
+}

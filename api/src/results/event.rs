@@ -4,7 +4,9 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use super::progress::Progress;
-use super::watch::{CollisionDetected, MonitorRestarted, MoveAborted, Resumed, StateLine, Stopped};
+use super::watch::{
+    CollisionDetected, MonitorRestarted, MoveAborted, Resumed, StateLine, Stopped, Watching,
+};
 
 /// A streamed event: `{"event": "<name>", "data": {…}}` (the event part of a reply line, and
 /// what `fri-ctl --json` prints per event).
@@ -25,6 +27,8 @@ pub enum Event {
     MonitorRestarted(MonitorRestarted),
     /// Every n-th state (`watch --state-every`).
     State(StateLine),
+    /// The first event of a `watch`: the subscription is live from this cycle on.
+    Watching(Watching),
 }
 
 impl Event {
@@ -46,6 +50,7 @@ impl Event {
             Event::MoveAborted(_) => "move-aborted",
             Event::MonitorRestarted(_) => "monitor-restarted",
             Event::State(_) => "state",
+            Event::Watching(_) => "watching",
         }
     }
 }

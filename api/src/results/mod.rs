@@ -16,6 +16,7 @@ mod progress;
 mod record;
 mod resume;
 mod sample;
+mod state;
 mod status;
 mod stop;
 mod tare;
@@ -34,10 +35,11 @@ pub use progress::{Phase, Progress, Workflow};
 pub use record::RecordResult;
 pub use resume::ResumeResult;
 pub use sample::SampleResult;
+pub use state::ServiceState;
 pub use status::{FriStatus, StatusResult};
 pub use stop::{ControllerLink, StopResult};
 pub use tare::TareResult;
 pub use watch::{
     AbortReason, CollisionDetected, MonitorRestarted, MoveAborted, Resumed, ResyncReason,
-    StateLine, StopCause, StopKind, Stopped, WatchResult,
+    StateLine, StopCause, StopKind, Stopped, WatchResult, Watching,
 };

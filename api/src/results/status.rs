@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 use super::collision::MonitorSettings;
 use super::lenient;
 use super::payload::AppliedPayload;
+use super::state::ServiceState;
 
 /// Result of `status`. The state fields are `null` before the first measurement.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -55,6 +56,10 @@ pub struct StatusResult {
     pub tare_samples: Option<usize>,
     /// Collision-monitor settings.
     pub monitor: MonitorSettings,
+    /// The service's state in the newest cycle (`null` before the first measurement; absent
+    /// from daemons older than this field).
+    #[serde(default)]
+    pub state: Option<ServiceState>,
 }
 
 /// The FRI endpoint's snapshot as `status` reports it (enum values as their Rust names).

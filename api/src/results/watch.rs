@@ -111,6 +111,22 @@ pub enum AbortReason {
     Unplannable,
     /// A brake (stop or reaction) interrupted the move.
     Braked,
+    /// The service is shutting down: the move is braked and command mode left.
+    ShuttingDown,
+}
+
+impl AbortReason {
+    /// Operator-facing text.
+    pub fn describe(&self) -> &'static str {
+        match self {
+            AbortReason::Held => "the arm is held (operator stop or collision reaction)",
+            AbortReason::CommandModeLost => "the controller left command mode",
+            AbortReason::ControllerRestarted => "the controller restarted",
+            AbortReason::Unplannable => "the move could not be planned",
+            AbortReason::Braked => "the move was braked",
+            AbortReason::ShuttingDown => "the service is shutting down",
+        }
+    }
 }
 
 /// Payload of a `monitor-restarted` event: the residual is invalid until the warm-up ends.
@@ -139,6 +155,28 @@ pub enum ResyncReason {
     },
     /// The controller left command mode and braked the arm.
     CommandModeLost,
+}
+
+impl ResyncReason {
+    /// Operator-facing text.
+    pub fn describe(&self) -> String {
+        match self {
+            ResyncReason::ControllerRestarted => "the controller restarted".to_owned(),
+            ResyncReason::Gap { cycles } => {
+                format!("{cycles} controller cycles passed without a measurement")
+            }
+            ResyncReason::CommandModeLost => {
+                "the controller left command mode and braked the arm".to_owned()
+            }
+        }
+    }
+}
+
+/// Payload of the first event of a `watch`: nothing after `cycle` is missed.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Watching {
+    /// The newest loop cycle when the subscription started (`None` before any measurement).
+    pub cycle: Option<u64>,
 }
 
 /// Payload of a `state` event (`watch --state-every N`).

@@ -128,6 +128,10 @@ pub(super) fn print_event(event: &Event, out: &mut dyn Write) -> io::Result<()> 
             writeln!(out, "           {}", controller(&s.fri))
         }
         Event::Resumed(r) => writeln!(out, "resumed    cycle {}", r.cycle),
+        Event::Watching(w) => match w.cycle {
+            Some(c) => writeln!(out, "watching   from cycle {c} (Ctrl-C ends)"),
+            None => writeln!(out, "watching   (no measurement yet; Ctrl-C ends)"),
+        },
         Event::MoveAborted(m) => {
             writeln!(out, "move-aborted cycle {}: {}", m.cycle, m.detail)?;
             writeln!(out, "           {}", controller(&m.fri))

@@ -241,8 +241,7 @@ fn ranges_follow_the_configured_cycle() {
     );
     assert_eq!(k, "observer.gains[0] (joint 1)");
     assert!(reason.contains("1…200 1/s"), "{reason}");
-    let (k, _) =
-        invalid("[fri]\ncycle_s = 0.01\nmax_joint_step = 0.002\nresync_after_s = 0.05\n");
+    let (k, _) = invalid("[fri]\ncycle_s = 0.01\nmax_joint_step = 0.002\nresync_after_s = 0.05\n");
     assert_eq!(k, "fri.resync_after_s");
     let ok = Config::from_toml(
         "[fri]\ncontroller_port = 49938\nresync_after_s = 0.1\n[motion]\nmax_around_distance_rad = 0.2\n",

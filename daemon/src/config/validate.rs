@@ -276,4 +276,3 @@ fn with_note(e: ConfigError, note: &str) -> ConfigError {
         other => other,
     }
 }
-

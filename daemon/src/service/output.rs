@@ -46,68 +46,7 @@ impl StopReason {
     }
 }
 
-/// Why a commanded move ended before its target.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-#[serde(tag = "kind", rename_all = "kebab-case")]
-pub enum AbortReason {
-    /// The arm is held (operator stop or collision reaction); moves are refused.
-    Held,
-    /// The controller left command mode without our request (missed answers, quality, limits).
-    CommandModeLost,
-    /// The controller restarted (new sequence epoch): command mode is gone.
-    ControllerRestarted,
-    /// The move could not be planned from the current set-point (limits invalid).
-    Unplannable,
-    /// A brake interrupted the move (stop or reaction) and it ended at rest.
-    Braked,
-    /// The service is shutting down: the move is braked and command mode left.
-    ShuttingDown,
-}
-
-impl AbortReason {
-    /// Operator-facing text.
-    pub fn describe(&self) -> &'static str {
-        match self {
-            AbortReason::Held => "the arm is held (operator stop or collision reaction)",
-            AbortReason::CommandModeLost => "the controller left command mode",
-            AbortReason::ControllerRestarted => "the controller restarted",
-            AbortReason::Unplannable => "the move could not be planned",
-            AbortReason::Braked => "the move was braked",
-            AbortReason::ShuttingDown => "the service is shutting down",
-        }
-    }
-}
-
-/// Why the collision monitor started over (its residual is invalid until the warm-up ends).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-#[serde(tag = "kind", rename_all = "kebab-case")]
-pub enum ResyncReason {
-    /// The controller restarted (or a new controller was bound).
-    ControllerRestarted,
-    /// Measurements went missing for longer than the observer can bridge.
-    Gap {
-        /// Controller cycles since the previous accepted measurement.
-        cycles: u32,
-    },
-    /// The controller left command mode and braked the arm: the velocity filter's lag would
-    /// read the braking as an external torque, so the monitor waits for rest.
-    CommandModeLost,
-}
-
-impl ResyncReason {
-    /// Operator-facing text.
-    pub fn describe(&self) -> String {
-        match self {
-            ResyncReason::ControllerRestarted => "the controller restarted".to_owned(),
-            ResyncReason::Gap { cycles } => {
-                format!("{cycles} controller cycles passed without a measurement")
-            }
-            ResyncReason::CommandModeLost => {
-                "the controller left command mode and braked the arm".to_owned()
-            }
-        }
-    }
-}
+pub use fri_api::results::{AbortReason, ResyncReason};
 
 /// What the loop reports to the non-real-time side, in cycle order.
 #[allow(clippy::large_enum_variant)] // by value on purpose: no allocation per cycle

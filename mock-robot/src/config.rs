@@ -471,6 +471,10 @@ pub struct ControllerSpec {
     pub start_delay_s: f64,
     /// Round-trip latency above which an answer counts as missed, as a fraction of the cycle.
     pub answer_deadline_cycles: f64,
+    /// Start requests (distinct ids) the KRL program misses after each friOpen: it neither acts
+    /// on nor acknowledges them, as a program that polls `$FRI_FRM_INT` at the wrong moment
+    /// (the remote must send the request again with a new id). 0 = none.
+    pub ignored_start_requests: u32,
 }
 
 impl Default for ControllerSpec {
@@ -483,6 +487,7 @@ impl Default for ControllerSpec {
             jump_velocity_factor: 1.0,
             start_delay_s: 0.012,
             answer_deadline_cycles: 1.0,
+            ignored_start_requests: 0,
         }
     }
 }

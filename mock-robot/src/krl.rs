@@ -221,6 +221,10 @@ pub struct KrlProgram {
     setpoint_step: JointVector,
     consecutive_misses: u32,
     closed: bool,
+    /// Start requests still to be missed ([`ControllerSpec::ignored_start_requests`]).
+    starts_to_ignore: u32,
+    /// Id of the start request being missed (0: none).
+    ignored_id: i32,
 }
 
 impl KrlProgram {
@@ -241,6 +245,8 @@ impl KrlProgram {
             setpoint_step: JointVector::zeros(),
             consecutive_misses: 0,
             closed: false,
+            starts_to_ignore: spec.ignored_start_requests,
+            ignored_id: 0,
         }
     }
 
@@ -390,6 +396,13 @@ impl KrlProgram {
             return None;
         }
         match c.int_data[REQUEST_INDEX] {
+            REQUEST_START if self.state == FriState::Monitor && id == self.ignored_id => None,
+            REQUEST_START if self.state == FriState::Monitor && self.starts_to_ignore > 0 => {
+                // Missed: no acknowledgement, no start; the same id stays missed.
+                self.starts_to_ignore -= 1;
+                self.ignored_id = id;
+                None
+            }
             REQUEST_START if self.state == FriState::Monitor => {
                 let Some(strategy) = Strategy::from_krl(c.int_data[STRATEGY_INDEX]) else {
                     self.last_id = id;
@@ -707,6 +720,40 @@ mod tests {
             Strategy::Position.required_flags(),
             KrlStrategy::JointPosition.command_flags().bits()
         );
+    }
+
+    #[test]
+    fn ignored_start_requests_are_neither_acted_on_nor_acknowledged() {
+        let spec = ControllerSpec {
+            ignored_start_requests: 1,
+            ..ControllerSpec::default()
+        };
+        let mut p = KrlProgram::new(&spec, T);
+        let q = JointVector::from_element(0.3);
+        let first = request(&q, FLAGS_POSITION, REQUEST_START, 10, 1);
+        for _ in 0..100 {
+            assert_eq!(p.step(Some(&first), Quality::Perfect, &q), None);
+        }
+        let mut words = [0; 16];
+        p.write_status(&mut words);
+        assert_eq!(
+            (words[15], words[13]),
+            (10, 0),
+            "monitor, nothing acknowledged"
+        );
+        let again = request(&q, FLAGS_POSITION, REQUEST_START, 10, 2);
+        assert_eq!(
+            run_until_event(&mut p, &again, &q),
+            KrlEvent::EnteredCommand(Strategy::Position)
+        );
+        p.write_status(&mut words);
+        assert_eq!((words[15], words[13]), (20, 2));
+        // A restart (friOpen again) misses the next first start too.
+        p.restart();
+        let third = request(&q, FLAGS_POSITION, REQUEST_START, 10, 3);
+        assert_eq!(p.step(Some(&third), Quality::Perfect, &q), None);
+        p.write_status(&mut words);
+        assert_eq!(words[13], 0);
     }
 
     #[test]

@@ -105,6 +105,8 @@ pub struct CycleProcessor {
     command_wanted: bool,
     pending_target: Option<V7>,
     motion: Option<(JointMove<7>, f64, V7)>,
+    /// The running move's abort was reported already (a shutdown): its brake ends silently.
+    abort_reported: bool,
     setpoint: Option<V7>,
     operator_stop: bool,
     reaction_hold: bool,
@@ -151,6 +153,7 @@ impl CycleProcessor {
             command_wanted: false,
             pending_target: None,
             motion: None,
+            abort_reported: false,
             setpoint: None,
             operator_stop: false,
             reaction_hold: false,
@@ -220,6 +223,7 @@ impl CycleProcessor {
                 CycleRequest::Shutdown => {
                     if self.is_moving() {
                         self.abort_move(AbortReason::ShuttingDown, fri);
+                        self.abort_reported = self.motion.is_some();
                     }
                     self.brake();
                     self.command_wanted = false;
@@ -383,7 +387,9 @@ impl CycleProcessor {
         self.residual_valid = out.live && self.rest_wait.is_none();
         self.last_residual = out.observer.residual;
         self.observer_fault = out.observer.status.fault().is_some();
-        self.collision_now = self.residual_valid && self.monitor.detector().in_contact();
+        // Disarmed, a detection is not reported as a collision, not even as the snapshot flag.
+        self.collision_now =
+            self.armed && self.residual_valid && self.monitor.detector().in_contact();
         if let Some(safety::Detection::Onset(e)) = out.detection
             && self.armed
         {
@@ -501,7 +507,10 @@ impl CycleProcessor {
         {
             self.pending_target = None;
             match JointMove::new(start, target, self.settings.limits) {
-                Ok(m) => self.motion = Some((m, self.time_s, target)),
+                Ok(m) => {
+                    self.motion = Some((m, self.time_s, target));
+                    self.abort_reported = false;
+                }
                 Err(_) => self.abort_move(AbortReason::Unplannable, fri),
             }
         }
@@ -511,7 +520,7 @@ impl CycleProcessor {
             if m.is_finished(t) {
                 let braked = m.is_braking();
                 self.motion = None;
-                if braked {
+                if braked && !self.abort_reported {
                     self.abort_move(AbortReason::Braked, fri);
                 }
             }

@@ -120,7 +120,7 @@ impl Rig {
                     acceleration: m.max_acceleration.into(),
                     jerk: m.max_jerk.into(),
                 },
-                react: config.reaction.policy != fri_service::config::ReactionPolicy::Report,
+                react: config.reaction.policy != fri_service::config::ReactionMode::Report,
                 armed: config.observer.armed,
             },
             monitor,

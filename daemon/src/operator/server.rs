@@ -59,6 +59,15 @@ impl EventSink {
         self.out.send(line).await.is_ok()
     }
 
+    /// Sends one typed event; `false` when the client is gone.
+    pub async fn event(&self, event: &fri_api::results::Event) -> bool {
+        let data = match serde_json::to_value(event) {
+            Ok(Value::Object(mut line)) => line.remove("data").unwrap_or(Value::Null),
+            _ => Value::Null,
+        };
+        self.send(event.name(), data).await
+    }
+
     /// Whether the client has disconnected.
     pub fn is_closed(&self) -> bool {
         self.out.is_closed()

@@ -1,13 +1,15 @@
-//! The operator command handler: one match arm per command, each delegating to the service.
+//! The dispatcher of operator requests: one match arm per command, each running its workflow
+//! (`workflow/<command>.rs`) and returning its typed result (`fri_api::results`) as the reply.
 
 use std::sync::Arc;
 
+use serde::Serialize;
 use serde_json::Value;
 
 use super::core::ServiceCore;
 use crate::operator::server::{EventSink, Handler};
 use crate::persistence::AppliedPayload;
-use fri_api::protocol::{Command, OperatorError};
+use fri_api::protocol::{Command, ErrorCode, OperatorError};
 
 /// Adapts [`ServiceCore`] to the socket server's [`Handler`].
 #[derive(Debug, Clone)]
@@ -17,14 +19,14 @@ impl Handler for Dispatcher {
     async fn handle(&self, command: Command, events: EventSink) -> Result<Value, OperatorError> {
         let s = &self.0;
         match command {
-            Command::Status => Ok(s.status()),
-            Command::Sample { duration_s } => s.sample(duration_s).await,
+            Command::Status => reply(Ok(s.status())),
+            Command::Sample { duration_s } => reply(s.sample(duration_s).await),
             Command::Tare {
                 around,
                 poses,
                 step_deg,
                 pattern,
-            } => {
+            } => reply(
                 s.tare(
                     around,
                     poses,
@@ -32,8 +34,8 @@ impl Handler for Dispatcher {
                     pattern.unwrap_or_default(),
                     &events,
                 )
-                .await
-            }
+                .await,
+            ),
             Command::EstimatePayload {
                 around,
                 poses,
@@ -41,7 +43,7 @@ impl Handler for Dispatcher {
                 pattern,
                 use_tare,
                 apply,
-            } => {
+            } => reply(
                 s.estimate_payload(
                     around,
                     poses,
@@ -51,26 +53,34 @@ impl Handler for Dispatcher {
                     apply.unwrap_or(false),
                     &events,
                 )
-                .await
-            }
+                .await,
+            ),
             Command::ApplyPayload { mass, com } => {
-                s.apply_payload(Some(AppliedPayload { mass, com }))
+                reply(s.apply_payload(Some(AppliedPayload { mass, com })))
             }
-            Command::ClearPayload => s.apply_payload(None),
+            Command::ClearPayload => reply(s.apply_payload(None)),
             Command::Collision {
                 action,
                 thresholds,
                 gains,
-            } => s.collision(action, thresholds, gains),
-            Command::Stop => s.stop(),
-            Command::Resume => s.resume(),
+            } => reply(s.collision(action, thresholds, gains)),
+            Command::Stop => reply(s.stop()),
+            Command::Resume => reply(s.resume()),
             Command::Record {
                 path,
                 kind,
                 duration_s,
                 count,
-            } => s.record(&path, kind, duration_s, count, &events).await,
-            Command::Watch { state_every } => s.watch(state_every, &events).await,
+            } => reply(s.record(&path, kind, duration_s, count, &events).await),
+            Command::Watch { state_every } => reply(s.watch(state_every, &events).await),
         }
     }
+}
+
+/// The typed result of a workflow as the reply's JSON (`fri_api::results` describes each).
+fn reply<R: Serialize>(result: Result<R, OperatorError>) -> Result<Value, OperatorError> {
+    let r = result?;
+    serde_json::to_value(&r).map_err(|e| {
+        OperatorError::new(ErrorCode::Internal, format!("result not serialisable: {e}"))
+    })
 }

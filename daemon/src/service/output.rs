@@ -32,6 +32,36 @@ pub enum StopReason {
 }
 
 impl StopReason {
+    /// What clients see of the reason (the observer fault as its JSON form).
+    pub fn to_cause(&self) -> fri_api::results::StopCause {
+        use fri_api::results::StopCause;
+        match *self {
+            StopReason::Operator => StopCause::Operator,
+            StopReason::Collision {
+                link,
+                time_s,
+                residual,
+            } => StopCause::Collision {
+                link,
+                time_s,
+                residual,
+            },
+            StopReason::ObserverFault { fault } => StopCause::ObserverFault {
+                fault: serde_json::to_value(fault).unwrap_or(serde_json::Value::Null),
+            },
+        }
+    }
+
+    /// The stable short name (scripts match on it).
+    pub fn kind(&self) -> fri_api::results::StopKind {
+        use fri_api::results::StopKind;
+        match self {
+            StopReason::Operator => StopKind::Operator,
+            StopReason::Collision { .. } => StopKind::Collision,
+            StopReason::ObserverFault { .. } => StopKind::ObserverFault,
+        }
+    }
+
     /// Operator-facing text.
     pub fn describe(&self) -> String {
         match self {

@@ -39,6 +39,25 @@ pub enum LoopState {
 }
 
 impl LoopState {
+    /// What clients see of the state (`status`).
+    pub fn to_api(&self) -> fri_api::results::ServiceState {
+        use fri_api::results::ServiceState;
+        match *self {
+            Self::Monitor => ServiceState::Monitor,
+            Self::EnteringCommand => ServiceState::EnteringCommand,
+            Self::Commanding => ServiceState::Commanding,
+            Self::Moving => ServiceState::Moving,
+            Self::Stopped { reason, fri } => ServiceState::Stopped {
+                cause: reason.to_cause(),
+                fri,
+            },
+            Self::Fault { reason, fri } => ServiceState::Fault {
+                cause: reason.to_cause(),
+                fri,
+            },
+        }
+    }
+
     /// The state of the cycle in `snapshot`, given the stop that holds the arm (if any).
     pub fn of(snapshot: &RobotState, stop: Option<(StopReason, FriContext)>) -> Self {
         let f = snapshot.flags;

@@ -1,6 +1,6 @@
 //! `collision show|arm|disarm|configure`: the collision monitor's reaction and settings.
 
-use serde_json::{Value, json};
+use fri_api::results::CollisionResult;
 
 use crate::service::core::{ServiceCore, err};
 use crate::service::cycle::CycleRequest;
@@ -13,7 +13,7 @@ impl ServiceCore {
         action: fri_api::protocol::CollisionAction,
         thresholds: Option<[f64; 7]>,
         gains: Option<[f64; 7]>,
-    ) -> Result<Value, OperatorError> {
+    ) -> Result<CollisionResult, OperatorError> {
         use fri_api::protocol::CollisionAction as A;
         match action {
             A::Show => {}
@@ -60,6 +60,10 @@ impl ServiceCore {
             }
         }
         let (armed, t, g) = self.persistent(|s| (s.armed, s.thresholds, s.gains));
-        Ok(json!({"armed": armed, "thresholds": t, "gains": g}))
+        Ok(CollisionResult {
+            armed,
+            thresholds: t,
+            gains: g,
+        })
     }
 }

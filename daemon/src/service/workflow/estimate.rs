@@ -2,8 +2,12 @@
 //! with the stored tare when it matches), optionally applied.
 
 use dynamics::Model;
+use fri_api::results::{
+    Correction, EstimateMethod, EstimateResult, Event, Phase, Progress, Workflow,
+};
 use nalgebra::SVector;
-use serde_json::{Value, json};
+
+use estimator::estimate::{Correction as EstimatorCorrection, Method};
 
 use crate::ipc::PayloadEstimate as IpcPayload;
 use crate::operator::server::EventSink;
@@ -24,17 +28,22 @@ impl ServiceCore {
         use_tare: Option<bool>,
         apply: bool,
         events: &EventSink,
-    ) -> Result<Value, OperatorError> {
+    ) -> Result<EstimateResult, OperatorError> {
         let _guard = self.busy()?;
         let tare = self.persistent(|s| s.tare.clone());
         let (samples, around) = self
-            .run_pattern(around, poses, step_deg, kind, "estimate", events)
+            .run_pattern(around, poses, step_deg, kind, Workflow::Estimate, events)
             .await?;
         events
-            .send(
-                "progress",
-                json!({"phase": "estimating", "workflow": "estimate"}),
-            )
+            .event(&Event::Progress(Progress {
+                phase: Phase::Estimating,
+                step: None,
+                of: None,
+                workflow: Some(Workflow::Estimate),
+                pose: None,
+                settle_s: None,
+                max_speed: None,
+            }))
             .await;
         let loaded: Vec<StaticSample> = samples.iter().map(|s| s.sample).collect();
         let tare_matches = tare.as_ref().is_some_and(|t| {
@@ -59,15 +68,38 @@ impl ServiceCore {
             &loaded,
             if use_tare { tare.as_ref() } else { None },
         )?;
-        let mut result = serde_json::to_value(&estimate).unwrap_or(Value::Null);
-        result["tare_used"] = json!(use_tare);
-        if use_tare {
-            // The tare was applied here (Δτ = τ_loaded − τ_unloaded), not inside the estimator.
-            result["correction"] = json!("tare");
-        }
-        result["frame"] = json!("7");
-        result["around"] = json!(around);
-        result["applied"] = json!(apply);
+        let e = &estimate;
+        let result = EstimateResult {
+            method: match e.method {
+                Method::Direct => EstimateMethod::Direct,
+                Method::Coefficients => EstimateMethod::Coefficients,
+            },
+            // The tare is applied here (Δτ = τ_loaded − τ_unloaded), not inside the estimator.
+            correction: match (use_tare, e.correction) {
+                (true, _) => Correction::Tare,
+                (false, EstimatorCorrection::None) => Correction::None,
+                (false, EstimatorCorrection::Tare) => Correction::Tare,
+                (false, EstimatorCorrection::Calibration) => Correction::Calibration,
+            },
+            mass: e.mass,
+            mass_std: e.mass_std,
+            com: e.com,
+            com_std: e.com_std,
+            com_flange: e.com_flange,
+            com_flange_std: e.com_flange_std,
+            first_moment: e.first_moment,
+            first_moment_std: e.first_moment_std,
+            covariance: e.covariance,
+            residual_rms: e.residual_rms.clone(),
+            residual_std: e.residual_std,
+            condition_number: e.condition_number,
+            samples: e.samples,
+            joints_used: e.joints_used.clone(),
+            tare_used: use_tare,
+            frame: "7".to_owned(),
+            around,
+            applied: apply,
+        };
         if let Some(ipc) = &self.ipc {
             ipc.payload(&IpcPayload {
                 time_s: self.shared.latest().map_or(0.0, |s| s.robot.time_s),

@@ -1,7 +1,9 @@
 //! `apply-payload` / `clear-payload`: install a payload in the observer (paper eq. 48),
 //! persist it and publish it.
 
-use serde_json::{Value, json};
+use fri_api::results::PayloadResult;
+
+use super::status::applied;
 
 use crate::ipc::PayloadEstimate as IpcPayload;
 use crate::persistence::AppliedPayload;
@@ -11,7 +13,7 @@ use fri_api::protocol::{ErrorCode, OperatorError};
 
 impl ServiceCore {
     /// `apply-payload`: to the observer and persisted.
-    pub fn apply_payload(&self, p: Option<AppliedPayload>) -> Result<Value, OperatorError> {
+    pub fn apply_payload(&self, p: Option<AppliedPayload>) -> Result<PayloadResult, OperatorError> {
         if let Some(p) = &p {
             let ok = p.mass.is_finite()
                 && p.mass >= 0.0
@@ -42,6 +44,8 @@ impl ServiceCore {
                 ..IpcPayload::default()
             });
         }
-        Ok(json!({"payload": p.map(|p| json!({"mass": p.mass, "com": p.com, "frame": "7"}))}))
+        Ok(PayloadResult {
+            payload: p.as_ref().map(applied),
+        })
     }
 }

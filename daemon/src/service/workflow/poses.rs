@@ -1,7 +1,7 @@
 //! The pose pattern shared by `tare` and `estimate-payload`: drive each pose, take one averaged
 //! static sample there, return to the start pose; any stop or contact ends it with its cause.
 
-use serde_json::json;
+use fri_api::results::{Event, Phase, Progress, Workflow};
 
 use crate::operator::server::EventSink;
 use crate::service::core::{ServiceCore, err};
@@ -17,7 +17,7 @@ impl ServiceCore {
         poses: Option<usize>,
         step_deg: Option<f64>,
         kind: PatternKind,
-        phase: &str,
+        workflow: Workflow,
         events: &EventSink,
     ) -> Result<(Vec<AveragedSample>, [f64; 7]), OperatorError> {
         let latest = self.latest()?;
@@ -42,14 +42,26 @@ impl ServiceCore {
         let mut baseline = Some(latest.robot.residual);
         let mut samples = Vec::with_capacity(count);
         for (k, pose) in pattern.iter().enumerate() {
-            let progress = |p: &str| json!({"phase": p, "step": k + 1, "of": count, "workflow": phase, "pose": pose});
-            events.send("progress", progress("moving")).await;
+            let progress = |phase| Progress {
+                phase,
+                step: Some(k + 1),
+                of: Some(count),
+                workflow: Some(workflow),
+                pose: Some(*pose),
+                settle_s: None,
+                max_speed: None,
+            };
+            events
+                .event(&Event::Progress(progress(Phase::Moving)))
+                .await;
             let r = self.move_to(*pose, baseline).await;
             if let Err(e) = r {
                 self.release().await;
                 return Err(e);
             }
-            events.send("progress", progress("settling")).await;
+            events
+                .event(&Event::Progress(progress(Phase::Settling)))
+                .await;
             let acquired = self
                 .acquire(true, self.config.estimation.average_s, baseline)
                 .await;
@@ -63,17 +75,24 @@ impl ServiceCore {
                     return Err(e);
                 }
             };
-            let mut done = progress("sampled");
-            done["settle_s"] = json!(settle_s);
-            done["max_speed"] = json!(sample.max_speed);
-            events.send("progress", done).await;
+            let done = Progress {
+                settle_s: Some(settle_s),
+                max_speed: Some(sample.max_speed),
+                ..progress(Phase::Sampled)
+            };
+            events.event(&Event::Progress(done)).await;
             samples.push(sample);
         }
         events
-            .send(
-                "progress",
-                json!({"phase": "returning", "workflow": phase, "step": count, "of": count}),
-            )
+            .event(&Event::Progress(Progress {
+                phase: Phase::Returning,
+                step: Some(count),
+                of: Some(count),
+                workflow: Some(workflow),
+                pose: None,
+                settle_s: None,
+                max_speed: None,
+            }))
             .await;
         let back = self.move_to(start_q, baseline).await;
         self.release().await;

@@ -2,7 +2,7 @@
 
 use std::time::Duration;
 
-use serde_json::{Value, json};
+use fri_api::results::{Event, Phase, Progress, RecordResult};
 use tokio::sync::broadcast::error::RecvError;
 use tokio::time::Instant;
 
@@ -21,7 +21,7 @@ impl ServiceCore {
         duration_s: Option<f64>,
         count: Option<usize>,
         events: &EventSink,
-    ) -> Result<Value, OperatorError> {
+    ) -> Result<RecordResult, OperatorError> {
         use crate::recordings::{RecordDir, RecordError};
         use fri_api::protocol::RecordKind;
         let refuse = |e: RecordError| {
@@ -50,10 +50,15 @@ impl ServiceCore {
                         .await?;
                     rows.push(s.sample);
                     events
-                        .send(
-                            "progress",
-                            json!({"phase": "sampled", "step": k + 1, "of": n}),
-                        )
+                        .event(&Event::Progress(Progress {
+                            phase: Phase::Sampled,
+                            step: Some(k + 1),
+                            of: Some(n),
+                            workflow: None,
+                            pose: None,
+                            settle_s: None,
+                            max_speed: None,
+                        }))
                         .await;
                 }
                 let mut text = Vec::new();
@@ -63,7 +68,11 @@ impl ServiceCore {
                 let (mut file, _) = dir.create(path).map_err(refuse)?;
                 use std::io::Write;
                 file.write_all(&text).map_err(io)?;
-                Ok(json!({"rows": rows.len(), "path": shown}))
+                Ok(RecordResult {
+                    rows: rows.len(),
+                    path: shown,
+                    lost: None,
+                })
             }
             RecordKind::Log => {
                 let d = duration_s.unwrap_or(1.0);
@@ -116,7 +125,11 @@ impl ServiceCore {
                     rows += 1;
                 }
                 w.flush().map_err(io)?;
-                Ok(json!({"rows": rows, "path": shown, "lost": lost}))
+                Ok(RecordResult {
+                    rows,
+                    path: shown,
+                    lost: Some(lost),
+                })
             }
         }
     }

@@ -1,6 +1,6 @@
 //! `sample`: one averaged static sample at the current pose.
 
-use serde_json::{Value, json};
+use fri_api::results::SampleResult;
 
 use crate::service::core::{ServiceCore, err};
 use crate::service::settle::AveragedSample;
@@ -8,7 +8,7 @@ use fri_api::protocol::{ErrorCode, OperatorError};
 
 impl ServiceCore {
     /// `sample`: one averaged static sample at the current pose.
-    pub async fn sample(&self, duration_s: Option<f64>) -> Result<Value, OperatorError> {
+    pub async fn sample(&self, duration_s: Option<f64>) -> Result<SampleResult, OperatorError> {
         let _guard = self.busy()?;
         let d = duration_s.unwrap_or(self.config.estimation.average_s);
         if !(d.is_finite() && d > 0.0 && d <= 60.0) {
@@ -18,14 +18,24 @@ impl ServiceCore {
             ));
         }
         let (s, settle_s) = self.acquire(true, d, None).await?;
-        Ok(sample_json(&s, settle_s))
+        Ok(sample_result(&s, settle_s))
     }
 }
 
-fn sample_json(s: &AveragedSample, settle_s: f64) -> Value {
-    json!({
-        "q": s.sample.q, "tau": s.sample.tau, "gravity": s.sample.gravity,
-        "velocity_max": s.max_speed, "torque_std": s.torque_std, "drift": s.drift,
-        "cycles": s.cycles, "settle_s": settle_s,
-    })
+fn sample_result(s: &AveragedSample, settle_s: f64) -> SampleResult {
+    let array = |v: &nalgebra::SVector<f64, 7>| {
+        let mut a = [0.0; 7];
+        a.copy_from_slice(v.as_slice());
+        a
+    };
+    SampleResult {
+        q: array(&s.sample.q),
+        tau: array(&s.sample.tau),
+        gravity: array(&s.sample.gravity),
+        velocity_max: s.max_speed,
+        torque_std: s.torque_std,
+        drift: s.drift,
+        cycles: s.cycles,
+        settle_s,
+    }
 }

@@ -1,13 +1,15 @@
 //! `status`: the newest cycle, the controller's FRI view, the applied payload, the tare and
 //! the collision monitor's settings, read at once.
 
-use serde_json::{Value, json};
+use fri_api::results::{FriStatus, MonitorSettings, StatusResult};
+
+use crate::persistence::AppliedPayload;
 
 use crate::service::core::ServiceCore;
 
 impl ServiceCore {
     /// `status`.
-    pub fn status(&self) -> Value {
+    pub fn status(&self) -> StatusResult {
         // One read: `connected` and the values shown must describe the same state.
         let newest = self.shared.latest_with_age();
         let connected = newest.is_some_and(|(_, age)| age <= self.connection_timeout());
@@ -24,38 +26,51 @@ impl ServiceCore {
         });
         let fri = self.fri_state.as_ref().map(|f| {
             let s = f();
-            json!({
-                "valid": s.valid,
-                "state": format!("{:?}", s.measurement.interface.state),
-                "quality": format!("{:?}", s.measurement.interface.quality),
-                "krl_status": format!("{:?}", s.handshake.status),
-                "drop_reason": format!("{:?}", s.handshake.drop_reason),
-                "cycles": s.cycle,
-                "statistics": serde_json::to_value(s.statistics).unwrap_or(Value::Null),
-                "controller_statistics": serde_json::to_value(s.measurement.interface.statistics).unwrap_or(Value::Null),
-            })
+            FriStatus {
+                valid: s.valid,
+                state: format!("{:?}", s.measurement.interface.state),
+                quality: format!("{:?}", s.measurement.interface.quality),
+                krl_status: format!("{:?}", s.handshake.status),
+                drop_reason: format!("{:?}", s.handshake.drop_reason),
+                cycles: s.cycle,
+                statistics: s.statistics,
+                controller_statistics: s.measurement.interface.statistics,
+            }
         });
-        json!({
-            "connected": connected,
-            "state": snapshot.map(|s| s.state),
-            "residual_valid": snapshot.is_some_and(|s| s.residual_valid()),
-            "fri": fri,
-            "cycle": latest.map(|s| s.cycle),
-            "time_s": latest.map(|s| s.time_s),
-            "q": latest.map(|s| s.q),
-            "qd": latest.map(|s| s.qd),
-            "tau": latest.map(|s| s.tau),
-            "gravity": latest.map(|s| s.gravity),
-            "tau_ext": latest.map(|s| s.tau_ext),
-            "residual": latest.map(|s| s.residual),
-            "command_mode": snapshot.is_some_and(|s| s.command_mode()),
-            "stopped": snapshot.is_some_and(|s| s.state.is_held()),
-            "collision": snapshot.is_some_and(|s| s.collision()),
-            "observer_fault": snapshot.is_some_and(|s| s.observer_fault()),
-            "moving": snapshot.is_some_and(|s| s.moving()),
-            "payload": payload.map(|p| json!({"mass": p.mass, "com": p.com, "frame": "7"})),
-            "tare_samples": tare,
-            "monitor": {"armed": armed, "thresholds": thresholds, "gains": gains},
-        })
+        StatusResult {
+            connected,
+            state: snapshot.map(|s| s.state.to_api()),
+            residual_valid: snapshot.is_some_and(|s| s.residual_valid()),
+            fri,
+            cycle: latest.map(|s| s.cycle),
+            time_s: latest.map(|s| s.time_s),
+            q: latest.map(|s| s.q),
+            qd: latest.map(|s| s.qd),
+            tau: latest.map(|s| s.tau),
+            gravity: latest.map(|s| s.gravity),
+            tau_ext: latest.map(|s| s.tau_ext),
+            residual: latest.map(|s| s.residual),
+            command_mode: snapshot.is_some_and(|s| s.command_mode()),
+            stopped: snapshot.is_some_and(|s| s.state.is_held()),
+            collision: snapshot.is_some_and(|s| s.collision()),
+            observer_fault: snapshot.is_some_and(|s| s.observer_fault()),
+            moving: snapshot.is_some_and(|s| s.moving()),
+            payload: payload.map(|p| applied(&p)),
+            tare_samples: tare,
+            monitor: MonitorSettings {
+                armed,
+                thresholds,
+                gains,
+            },
+        }
+    }
+}
+
+/// What clients see of an applied payload (its CoM in the flange frame, "7").
+pub(crate) fn applied(p: &AppliedPayload) -> fri_api::results::AppliedPayload {
+    fri_api::results::AppliedPayload {
+        mass: p.mass,
+        com: p.com,
+        frame: "7".to_owned(),
     }
 }

@@ -1,7 +1,7 @@
 //! `tare`: the pose pattern without payload; the samples are stored and persisted so that a
 //! later estimate subtracts them pose by pose (Δτ = τ_loaded − τ_unloaded).
 
-use serde_json::{Value, json};
+use fri_api::results::{TareResult, Workflow};
 
 use crate::operator::server::EventSink;
 use crate::persistence::Tare;
@@ -18,10 +18,10 @@ impl ServiceCore {
         step_deg: Option<f64>,
         kind: PatternKind,
         events: &EventSink,
-    ) -> Result<Value, OperatorError> {
+    ) -> Result<TareResult, OperatorError> {
         let _guard = self.busy()?;
         let (samples, around) = self
-            .run_pattern(around, poses, step_deg, kind, "tare", events)
+            .run_pattern(around, poses, step_deg, kind, Workflow::Tare, events)
             .await?;
         let tare = Tare {
             around,
@@ -32,6 +32,6 @@ impl ServiceCore {
             .map_err(|e| err(ErrorCode::Internal, format!("tare not persisted: {e}")))?;
         let n = tare.samples.len();
         self.persistent(|s| s.tare = Some(tare));
-        Ok(json!({"samples": n, "around": around}))
+        Ok(TareResult { samples: n, around })
     }
 }

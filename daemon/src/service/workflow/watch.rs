@@ -3,22 +3,55 @@
 
 use std::time::Duration;
 
-use serde_json::{Value, json};
+use fri_api::results::{
+    CollisionDetected, Event, MonitorRestarted, MoveAborted, Resumed, StateLine, Stopped,
+    WatchResult, Watching,
+};
 use tokio::sync::broadcast::error::RecvError;
 
 use crate::operator::server::EventSink;
 use crate::service::core::ServiceCore;
-use crate::service::output::{CycleEvent, StopReason};
+use crate::service::output::CycleEvent;
 use crate::service::stream::Update;
 use fri_api::protocol::OperatorError;
 
-/// The stable short name of a stop reason (scripts match on it).
-fn stop_kind(reason: &StopReason) -> &'static str {
-    match reason {
-        StopReason::Operator => "operator",
-        StopReason::Collision { .. } => "collision",
-        StopReason::ObserverFault { .. } => "observer-fault",
-    }
+/// What a client sees of one loop event (`None`: not streamed).
+fn event_of(e: CycleEvent) -> Option<Event> {
+    Some(match e {
+        CycleEvent::Collision(c) => Event::Collision(CollisionDetected {
+            time_s: c.time_s,
+            cycle: c.cycle,
+            link: c.link,
+            joints: (0..7)
+                .filter(|j| c.joints_mask & (1 << j) != 0)
+                .map(|j| j + 1)
+                .collect(),
+            residual: c.residual,
+        }),
+        CycleEvent::Stopped { cycle, reason, fri } => Event::Stopped(Stopped {
+            cycle,
+            reason: reason.kind(),
+            detail: reason.describe(),
+            cause: reason.to_cause(),
+            fri,
+        }),
+        CycleEvent::Resumed { cycle } => Event::Resumed(Resumed { cycle }),
+        CycleEvent::MoveAborted { cycle, reason, fri } => Event::MoveAborted(MoveAborted {
+            cycle,
+            reason,
+            detail: reason.describe().to_owned(),
+            fri,
+        }),
+        CycleEvent::Resynchronised { cycle, reason, fri } => {
+            Event::MonitorRestarted(MonitorRestarted {
+                cycle,
+                reason,
+                detail: reason.describe(),
+                fri,
+            })
+        }
+        CycleEvent::State(_) => return None,
+    })
 }
 
 impl ServiceCore {
@@ -27,45 +60,45 @@ impl ServiceCore {
         &self,
         state_every: Option<u32>,
         sink: &EventSink,
-    ) -> Result<Value, OperatorError> {
+    ) -> Result<WatchResult, OperatorError> {
         let mut updates = self.shared.subscribe();
         // Says from which cycle on nothing is missed: a client (or test) acts after this event,
         // not after a guessed delay.
         let from = self.shared.latest().map(|s| s.robot.cycle);
-        if !sink.send("watching", json!({ "cycle": from })).await {
-            return Ok(json!({"watch": "ended"}));
+        let ended = || WatchResult {
+            watch: "ended".to_owned(),
+        };
+        if !sink.event(&Event::Watching(Watching { cycle: from })).await {
+            return Ok(ended());
         }
         let every = state_every.map(|e| u64::from(e.max(1)));
         loop {
             let keep = tokio::select! {
                 u = updates.recv() => match u {
-                    Ok(Update::Event(CycleEvent::Collision(c))) => sink.send("collision", json!({
-                        "time_s": c.time_s, "cycle": c.cycle, "link": c.link,
-                        "joints": (0..7).filter(|j| c.joints_mask & (1 << j) != 0).map(|j| j + 1).collect::<Vec<_>>(),
-                        "residual": c.residual,
-                    })).await,
-                    Ok(Update::Event(CycleEvent::Stopped { cycle, reason, fri })) => sink.send("stopped", json!({
-                        "cycle": cycle, "reason": stop_kind(&reason), "detail": reason.describe(),
-                        "cause": reason, "fri": fri,
-                    })).await,
-                    Ok(Update::Event(CycleEvent::Resumed { cycle })) => sink.send("resumed", json!({"cycle": cycle})).await,
-                    Ok(Update::Event(CycleEvent::MoveAborted { cycle, reason, fri })) => sink.send("move-aborted", json!({
-                        "cycle": cycle, "reason": reason, "detail": reason.describe(), "fri": fri,
-                    })).await,
-                    Ok(Update::Event(CycleEvent::Resynchronised { cycle, reason, fri })) => sink.send("monitor-restarted", json!({
-                        "cycle": cycle, "reason": reason, "detail": reason.describe(), "fri": fri,
-                    })).await,
-                    Ok(Update::Snapshot(s)) if every.is_some_and(|e| s.robot.cycle % e == 0) => sink.send("state", json!({
-                        "cycle": s.robot.cycle, "time_s": s.robot.time_s, "q": s.robot.q, "tau": s.robot.tau, "residual": s.robot.residual, "flags": s.robot.flags,
-                    })).await,
-                    Ok(Update::Snapshot(_) | Update::Event(_)) | Err(RecvError::Lagged(_)) => true,
+                    Ok(Update::Event(e)) => match event_of(e) {
+                        Some(event) => sink.event(&event).await,
+                        None => true,
+                    },
+                    Ok(Update::Snapshot(s)) if every.is_some_and(|e| s.robot.cycle % e == 0) => {
+                        let r = &s.robot;
+                        sink.event(&Event::State(StateLine {
+                            cycle: r.cycle,
+                            time_s: r.time_s,
+                            q: r.q,
+                            tau: r.tau,
+                            residual: r.residual,
+                            flags: r.flags,
+                        }))
+                        .await
+                    }
+                    Ok(Update::Snapshot(_)) | Err(RecvError::Lagged(_)) => true,
                     Err(RecvError::Closed) => false,
                 },
                 // Notice a vanished client even when nothing happens.
                 _ = tokio::time::sleep(Duration::from_millis(200)) => !sink.is_closed(),
             };
             if !keep {
-                return Ok(json!({"watch": "ended"}));
+                return Ok(ended());
             }
         }
     }

@@ -69,8 +69,9 @@ fn status_connected_and_disconnected() {
         "payload": json!({"mass": 1.5, "com": [0.0, 0.01, -0.02], "frame": "7"}),
         "tare_samples": 6,
         "monitor": {"armed": true, "thresholds": ([6.0; 7]), "gains": ([400.0; 7])},
+        "state": {"kind": "commanding"},
     });
-    let s: StatusResult = round_trip(connected);
+    let s: StatusResult = round_trip(connected.clone());
     assert_eq!(s.fri.unwrap().cycles, 1234);
     assert_eq!(s.payload.unwrap().mass, 1.5);
     // Before the first measurement and without an endpoint snapshot.
@@ -81,7 +82,13 @@ fn status_connected_and_disconnected() {
         "command_mode": false, "stopped": false, "collision": false, "observer_fault": false,
         "moving": false, "payload": null, "tare_samples": null,
         "monitor": {"armed": false, "thresholds": ([6.0; 7]), "gains": ([400.0; 7])},
+        "state": null,
     });
+    // Held by a collision: the state names the cause and the controller's view.
+    let mut held = connected.clone();
+    held["state"] = json!({"kind": "stopped", "cause": {"kind": "collision", "link": 4, "time_s": 2.5, "residual": ([7.0; 7])}, "fri": fri()});
+    let s: StatusResult = round_trip(held);
+    assert_eq!(s.state.map(|s| s.word()), Some("stopped"));
     let s: StatusResult = round_trip(empty.clone());
     assert!(s.q.is_none() && s.fri.is_none());
     // While the monitor warms up the residual is NaN, which JSON writes as null.
@@ -197,7 +204,12 @@ fn progress_events_of_every_phase() {
 
 #[test]
 fn watch_events_with_their_causes() {
-    // core/watch.rs, with the reasons as events.rs serialises them.
+    // workflow/watch.rs, with the reasons as output.rs serialises them.
+    assert_eq!(
+        event("watching", json!({"cycle": 5})),
+        Event::Watching(fri_api::results::Watching { cycle: Some(5) })
+    );
+    event("watching", json!({"cycle": null}));
     event(
         "collision",
         json!({"time_s": 12.5, "cycle": 12500u64, "link": 4, "joints": [3, 4], "residual": ([0.5; 7])}),

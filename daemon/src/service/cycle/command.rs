@@ -1,0 +1,140 @@
+//! Command mode: following the controller (entered, lost, restarted), waiting for rest after a
+//! brake by the controller, planning and sampling the commanded move, and the handshake.
+
+use super::*;
+
+impl CycleProcessor {
+    /// Restarts the collision monitor and says why.
+    pub(super) fn resynchronise(&mut self, reason: ResyncReason, fri: FriContext) {
+        self.monitor.restart();
+        self.emit(CycleEvent::Resynchronised {
+            cycle: self.cycle,
+            reason,
+            fri,
+        });
+    }
+    /// While the controller brakes the arm after a loss of command mode, keeps the monitor
+    /// restarting; the wait ends once the arm was at rest for [`REST_CYCLES`] (or after
+    /// [`MAX_REST_WAIT_CYCLES`]), and the monitor's warm-up follows.
+    pub(super) fn wait_for_rest(&mut self, q: &V7, dt: f64) {
+        let speed = self
+            .previous_q
+            .map_or(0.0, |p| (q - p).amax() / dt.max(f64::EPSILON));
+        self.previous_q = Some(*q);
+        let Some(w) = &mut self.rest_wait else {
+            return;
+        };
+        w.waited += 1;
+        w.quiet = if speed < REST_SPEED { w.quiet + 1 } else { 0 };
+        if w.quiet >= REST_CYCLES || w.waited >= MAX_REST_WAIT_CYCLES {
+            self.rest_wait = None;
+        }
+        self.monitor.restart();
+    }
+    /// Follows the controller's command mode; runs before the monitor steps, so that the
+    /// cycle in which the controller starts braking is already treated as such.
+    /// `in_command` is the session's verdict (state CMD and a drive powered).
+    pub(super) fn follow_command_mode(
+        &mut self,
+        msr: &Measurement,
+        in_command: bool,
+        restarted: bool,
+        fri: FriContext,
+    ) {
+        if in_command && !self.in_command {
+            // Entry: the session's step limits start from the mirrored set-point.
+            self.setpoint = Some(V7::from(msr.mirrored_joint_position()));
+            self.motion = None;
+        }
+        if !in_command && self.in_command {
+            // Command mode lost (controller dropped it, or we released it).
+            let moving = self.motion.is_some() || self.pending_target.is_some();
+            if moving {
+                let reason = if restarted {
+                    AbortReason::ControllerRestarted
+                } else {
+                    AbortReason::CommandModeLost
+                };
+                self.abort_move(reason, fri);
+                // The controller brakes the arm itself: its deceleration is no contact.
+                self.rest_wait = Some(RestWait {
+                    quiet: 0,
+                    waited: 0,
+                });
+                self.emit(CycleEvent::Resynchronised {
+                    cycle: self.cycle,
+                    reason: ResyncReason::CommandModeLost,
+                    fri,
+                });
+            }
+            self.motion = None;
+            self.pending_target = None;
+            self.command_wanted = self.command_wanted && !self.operator_stop;
+        }
+        self.in_command = in_command;
+    }
+    pub(super) fn command(
+        &mut self,
+        msr: &Measurement,
+        handshake: HandshakeStatus,
+        request: HandshakeRequest,
+        fri: FriContext,
+    ) -> (DesiredCommand, Option<(RequestKind, KrlStrategy)>) {
+        let in_command = self.in_command;
+        let new_request = self.handshake(msr, handshake, request);
+
+        let mut desired = DesiredCommand::default();
+        if !in_command {
+            return (desired, new_request);
+        }
+        if self.motion.is_none()
+            && let (Some(target), Some(start)) = (self.pending_target, self.setpoint)
+            && !self.is_holding()
+        {
+            self.pending_target = None;
+            match JointMove::new(start, target, self.settings.limits) {
+                Ok(m) => {
+                    self.motion = Some((m, self.time_s, target));
+                    self.abort_reported = false;
+                }
+                Err(_) => self.abort_move(AbortReason::Unplannable, fri),
+            }
+        }
+        if let Some((m, t0, _)) = &self.motion {
+            let t = self.time_s - *t0;
+            self.setpoint = Some(m.sample(t).position);
+            if m.is_finished(t) {
+                let braked = m.is_braking();
+                self.motion = None;
+                if braked && !self.abort_reported {
+                    self.abort_move(AbortReason::Braked, fri);
+                }
+            }
+        }
+        desired.joint_position = self.setpoint.map(|s| {
+            let mut a = [0.0; 7];
+            a.copy_from_slice(s.as_slice());
+            a
+        });
+        (desired, new_request)
+    }
+    pub(super) fn handshake(
+        &mut self,
+        msr: &Measurement,
+        status: HandshakeStatus,
+        current: HandshakeRequest,
+    ) -> Option<(RequestKind, KrlStrategy)> {
+        let busy = self.motion.is_some() || self.pending_target.is_some();
+        let wanted = if self.command_wanted && !self.in_command {
+            status
+                .accepts_start(msr.interface.quality)
+                .then_some((RequestKind::StartCommandMode, KrlStrategy::JointPosition))
+        } else if !self.command_wanted && self.in_command && !busy {
+            Some((RequestKind::StopCommandMode, KrlStrategy::None))
+        } else {
+            None
+        };
+        // Called every cycle: the retry counts cycles between requests of the same kind.
+        self.retry.poll(wanted, &current)
+    }
+}

@@ -1,0 +1,291 @@
+//! The per-cycle work of the service on the FRI loop thread: observer step, reaction, commanded
+//! motion, handshake, and hand-off of the cycle's state to the non-real-time side.
+//!
+//! [`CycleProcessor::on_measurement`] runs once per accepted measurement, between
+//! `fri::session::Session::receive` and `respond`. It never blocks and never allocates in steady
+//! state: operator requests arrive through a bounded queue read with `try_recv`, and each cycle's
+//! [`RobotState`] plus events leave through a bounded queue written with `try_send` (dropped and
+//! counted when the reader is behind).
+//!
+//! Rules for the collision monitor (each has a test in this module or `tests/`):
+//! - the reaction is executed whenever the monitor is armed and an onset occurs: arming, an
+//!   operator resume and a report-only onset all leave the supervisor ready for the next one;
+//! - disarmed, detections are neither reacted to nor reported as collisions;
+//! - time comes from the controller's sequence counter: a gap the observer can bridge
+//!   (≤ [`MAX_BRIDGED_CYCLES`]) is integrated with its true length, a longer gap or a
+//!   controller restart restarts the monitor (never integrated as one period);
+//! - when the controller leaves command mode during a move it brakes the arm; the monitor
+//!   restarts each cycle until the arm is at rest, then warms up;
+//! - while the monitor warms up or waits, the published residual is NaN and flagged
+//!   [`flags::RESIDUAL_INVALID`], and no collision can be reported.
+
+use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
+
+use fri::endpoint::{Cycle, CycleHook, CycleOutput};
+use fri::handshake::{HandshakeRequest, HandshakeStatus, KrlStrategy, RequestKind, RequestRetry};
+use fri::session::{DesiredCommand, Verdict};
+use fri::wire::{InterfaceState, Measurement, Quality};
+use nalgebra::SVector;
+use safety::{CollisionMonitor, ObserverInput, PayloadCompensation, ReactionRequest, StopCause};
+
+pub use super::output::CycleEvent;
+use super::output::{AbortReason, FriContext, ResyncReason, StopReason};
+use crate::ipc::{CollisionMessage, RobotState};
+use crate::motion::{JointMove, MotionLimits};
+use fri_api::ipc::flags;
+
+mod command;
+mod publish;
+mod requests;
+
+type V7 = SVector<f64, 7>;
+
+/// Longest gap the observer integrates across, controller cycles (its time-step band is 3 T).
+pub const MAX_BRIDGED_CYCLES: u32 = 3;
+/// Joint speed below which the arm counts as at rest after the controller braked it, rad/s.
+const REST_SPEED: f64 = 0.02;
+/// Consecutive cycles at rest that end the wait after a loss of command mode.
+const REST_CYCLES: u32 = 20;
+/// Longest wait for rest after a loss of command mode, cycles (2 s at 1 kHz).
+const MAX_REST_WAIT_CYCLES: u32 = 2000;
+
+/// Waiting for the arm to come to rest after the controller braked it.
+#[derive(Debug, Clone, Copy)]
+struct RestWait {
+    quiet: u32,
+    waited: u32,
+}
+
+/// Requests from the operator side to the loop.
+#[derive(Debug)]
+pub enum CycleRequest {
+    /// Enter command mode if needed and move to this joint position (rad), jerk-limited.
+    MoveTo([f64; 7]),
+    /// Leave command mode once no move is pending.
+    ReleaseCommandMode,
+    /// Operator stop: brake any move and hold; refuse moves until [`CycleRequest::Resume`].
+    Stop,
+    /// Clear an operator stop and acknowledge a collision reaction.
+    Resume,
+    /// Install a payload in the observer (paper eq. 48); `None` removes it.
+    SetPayload(Option<PayloadCompensation>),
+    /// Arm (true) or disarm (false) the collision reaction.
+    Arm(bool),
+    /// Replace the collision monitor (new thresholds or gains); the payload is carried over.
+    ReplaceMonitor(Box<CollisionMonitor<7>>),
+    /// The service shuts down: brake any move, forget pending ones, and leave command mode
+    /// through the handshake once the arm is at rest (no hold is latched: nothing to resume).
+    Shutdown,
+}
+
+/// Settings of the processor.
+#[derive(Debug, Clone, Copy)]
+pub struct ProcessorSettings {
+    /// Controller cycle, s.
+    pub cycle_s: f64,
+    /// Limits of commanded moves.
+    pub limits: MotionLimits<7>,
+    /// Whether a collision reaction stops the arm (false = report only).
+    pub react: bool,
+    /// Armed at start.
+    pub armed: bool,
+}
+
+/// Per-cycle application logic of the service (see the module documentation).
+pub struct CycleProcessor {
+    settings: ProcessorSettings,
+    monitor: Box<CollisionMonitor<7>>,
+    payload: Option<PayloadCompensation>,
+    armed: bool,
+    requests: Receiver<CycleRequest>,
+    events: SyncSender<CycleEvent>,
+    dropped_events: u64,
+    cycle: u64,
+    time_s: f64,
+    previous_q: Option<V7>,
+    rest_wait: Option<RestWait>,
+    residual_valid: bool,
+    in_command: bool,
+    command_wanted: bool,
+    pending_target: Option<V7>,
+    motion: Option<(JointMove<7>, f64, V7)>,
+    /// The running move's abort was reported already (a shutdown): its brake ends silently.
+    abort_reported: bool,
+    setpoint: Option<V7>,
+    operator_stop: bool,
+    reaction_hold: bool,
+    resume_when_clear: bool,
+    interrupted_target: Option<V7>,
+    retry: RequestRetry,
+    last_residual: V7,
+    observer_fault: bool,
+    collision_now: bool,
+}
+
+impl std::fmt::Debug for CycleProcessor {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CycleProcessor")
+            .field("cycle", &self.cycle)
+            .field("in_command", &self.in_command)
+            .finish_non_exhaustive()
+    }
+}
+
+impl CycleProcessor {
+    /// A processor with its monitor, request queue and event queue.
+    pub fn new(
+        settings: ProcessorSettings,
+        mut monitor: CollisionMonitor<7>,
+        requests: Receiver<CycleRequest>,
+        events: SyncSender<CycleEvent>,
+    ) -> Self {
+        monitor.set_armed(settings.armed);
+        Self {
+            armed: settings.armed,
+            settings,
+            monitor: Box::new(monitor),
+            payload: None,
+            requests,
+            events,
+            dropped_events: 0,
+            cycle: 0,
+            time_s: 0.0,
+            previous_q: None,
+            rest_wait: None,
+            residual_valid: false,
+            in_command: false,
+            command_wanted: false,
+            pending_target: None,
+            motion: None,
+            abort_reported: false,
+            setpoint: None,
+            operator_stop: false,
+            reaction_hold: false,
+            resume_when_clear: false,
+            interrupted_target: None,
+            retry: RequestRetry::default(),
+            last_residual: V7::zeros(),
+            observer_fault: false,
+            collision_now: false,
+        }
+    }
+
+    /// Events dropped because the non-real-time side was behind.
+    pub fn dropped_events(&self) -> u64 {
+        self.dropped_events
+    }
+
+    /// Cycles processed.
+    pub fn cycles(&self) -> u64 {
+        self.cycle
+    }
+
+    /// Whether the arm is held (operator stop or collision reaction): no move is driven.
+    pub fn is_holding(&self) -> bool {
+        self.operator_stop || self.reaction_hold
+    }
+
+    /// Whether the collision reaction is armed.
+    pub fn is_armed(&self) -> bool {
+        self.armed
+    }
+
+    /// Whether a commanded move is running or pending.
+    pub fn is_moving(&self) -> bool {
+        self.motion
+            .as_ref()
+            .is_some_and(|(m, _, _)| !m.is_braking())
+            || self.pending_target.is_some()
+    }
+
+    fn emit(&mut self, e: CycleEvent) {
+        if let Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) = self.events.try_send(e)
+        {
+            self.dropped_events += 1;
+        }
+    }
+
+    /// Processes one accepted measurement: `verdict` is how the session placed it in the
+    /// controller's sequence and whether the controller commands, `handshake` the KRL report in
+    /// it and `request` the handshake request we currently send. Returns the command wish for
+    /// the session and, when needed, a new handshake request.
+    pub fn on_measurement(
+        &mut self,
+        msr: &Measurement,
+        verdict: Verdict,
+        handshake: HandshakeStatus,
+        request: HandshakeRequest,
+    ) -> (DesiredCommand, Option<(RequestKind, KrlStrategy)>) {
+        let fri = FriContext::of(msr);
+        let elapsed = verdict.elapsed_cycles();
+        let first = self.cycle == 0;
+        self.cycle += 1;
+        // Time from the controller's sequence counter, never from the host clock.
+        let cycles = elapsed.unwrap_or(1);
+        let dt = self.settings.cycle_s * f64::from(cycles);
+        self.time_s += dt;
+        let restarted = elapsed.is_none() && !first;
+        if restarted {
+            self.resynchronise(ResyncReason::ControllerRestarted, fri);
+        } else if cycles > MAX_BRIDGED_CYCLES {
+            self.resynchronise(ResyncReason::Gap { cycles }, fri);
+        }
+
+        self.handle_requests(fri);
+
+        self.follow_command_mode(msr, verdict.commanding, restarted, fri);
+        let q = V7::from(msr.data.msr_jnt_pos);
+        self.wait_for_rest(&q, dt);
+        let tau = V7::from(msr.data.msr_jnt_trq);
+        let gravity = V7::from(msr.data.gravity);
+        let mut input = ObserverInput::new(q, tau, dt);
+        input.controller_gravity = Some(gravity);
+        let out = self.monitor.step(&input);
+        self.residual_valid = out.live && self.rest_wait.is_none();
+        self.last_residual = out.observer.residual;
+        self.observer_fault = out.observer.status.fault().is_some();
+        // Disarmed, a detection is not reported as a collision, not even as the snapshot flag.
+        self.collision_now =
+            self.armed && self.residual_valid && self.monitor.detector().in_contact();
+        if let Some(safety::Detection::Onset(e)) = out.detection
+            && self.armed
+        {
+            let mut residual = [0.0; 7];
+            residual.copy_from_slice(e.residual.as_slice());
+            self.emit(CycleEvent::Collision(CollisionMessage {
+                cycle: self.cycle,
+                time_s: self.time_s,
+                residual,
+                joints_mask: e.joints_over.0,
+                link: (e.isolated_link + 1) as u32,
+            }));
+        }
+        if let Some(r) = out.reaction {
+            self.apply_reaction(r, fri);
+        }
+        if self.resume_when_clear && !self.monitor.detector().in_contact() {
+            self.resume(fri);
+        }
+
+        let (desired, new_request) = self.command(msr, handshake, request, fri);
+        self.publish(msr, &out.observer.velocity);
+        (desired, new_request)
+    }
+}
+
+impl CycleHook for CycleProcessor {
+    fn on_cycle(&mut self, cycle: &Cycle<'_>, output: &mut CycleOutput) {
+        let state = cycle.state;
+        if !state.valid {
+            return;
+        }
+        let (desired, request) = self.on_measurement(
+            &state.measurement,
+            cycle.verdict,
+            state.handshake,
+            state.request,
+        );
+        output.desired = desired;
+        output.request = request;
+    }
+}

@@ -1,0 +1,149 @@
+//! Operator requests and the collision reaction on the loop: move, release, stop, resume,
+//! payload, arming, monitor replacement, shutdown; every hold and brake starts here.
+
+use super::*;
+
+impl CycleProcessor {
+    pub(super) fn handle_requests(&mut self, fri: FriContext) {
+        // A bounded number per cycle keeps the cycle time bounded.
+        for _ in 0..8 {
+            let Ok(request) = self.requests.try_recv() else {
+                return;
+            };
+            match request {
+                CycleRequest::MoveTo(target) => {
+                    let target = V7::from(target);
+                    if !self.is_holding() {
+                        self.pending_target = Some(target);
+                        self.command_wanted = true;
+                    } else {
+                        self.abort_move(AbortReason::Held, fri);
+                    }
+                }
+                CycleRequest::ReleaseCommandMode => {
+                    self.command_wanted = false;
+                }
+                CycleRequest::Shutdown => {
+                    if self.is_moving() {
+                        self.abort_move(AbortReason::ShuttingDown, fri);
+                        self.abort_reported = self.motion.is_some();
+                    }
+                    self.brake();
+                    self.command_wanted = false;
+                }
+                CycleRequest::Stop => {
+                    self.operator_stop = true;
+                    self.resume_when_clear = false;
+                    self.brake();
+                    self.emit(CycleEvent::Stopped {
+                        cycle: self.cycle,
+                        reason: StopReason::Operator,
+                        fri,
+                    });
+                }
+                CycleRequest::Resume => {
+                    // Into a contact that is still present, the resume waits for its release
+                    // (the old reaction would otherwise be replaced by a new one at once).
+                    if self.armed && self.monitor.detector().in_contact() {
+                        self.resume_when_clear = true;
+                    } else {
+                        self.resume(fri);
+                    }
+                }
+                CycleRequest::SetPayload(p) => {
+                    let compensation = p.clone().unwrap_or(PayloadCompensation::None);
+                    // A rejected estimate leaves the previous payload in use (the safety crate
+                    // reports it as a fault); the operator side validated it already.
+                    if self.monitor.set_payload(compensation).is_ok() {
+                        self.payload = p;
+                    }
+                }
+                CycleRequest::Arm(on) => {
+                    // Arming starts from a live reaction whatever happened while disarmed.
+                    self.monitor.set_armed(on);
+                    self.armed = on;
+                }
+                CycleRequest::ReplaceMonitor(mut m) => {
+                    let _ =
+                        m.set_payload(self.payload.clone().unwrap_or(PayloadCompensation::None));
+                    m.set_armed(self.armed);
+                    self.monitor = m;
+                }
+            }
+        }
+    }
+    /// Ends every hold (operator stop, reaction) and readies the reaction for the next onset.
+    pub(super) fn resume(&mut self, _fri: FriContext) {
+        let was = self.is_holding();
+        self.resume_when_clear = false;
+        self.operator_stop = false;
+        self.reaction_hold = false;
+        self.interrupted_target = None;
+        // The hold ended here: the supervisor must be ready for the next onset.
+        self.monitor.release_reaction();
+        if was {
+            self.emit(CycleEvent::Resumed { cycle: self.cycle });
+        }
+    }
+    pub(super) fn abort_move(&mut self, reason: AbortReason, fri: FriContext) {
+        self.emit(CycleEvent::MoveAborted {
+            cycle: self.cycle,
+            reason,
+            fri,
+        });
+    }
+    /// Brakes the current move (if any) and forgets pending ones.
+    pub(super) fn brake(&mut self) {
+        self.pending_target = None;
+        let t = self.time_s;
+        if let Some((m, t0, target)) = &mut self.motion {
+            m.stop_at(t - *t0);
+            self.interrupted_target = Some(*target);
+        }
+    }
+    pub(super) fn apply_reaction(&mut self, request: ReactionRequest<7>, fri: FriContext) {
+        match request {
+            ReactionRequest::Stop(cause)
+            | ReactionRequest::Pause { cause, .. }
+            | ReactionRequest::HoldForOperator(cause) => {
+                let reason = match cause {
+                    StopCause::Collision(e) => {
+                        let mut residual = [0.0; 7];
+                        residual.copy_from_slice(e.residual.as_slice());
+                        StopReason::Collision {
+                            link: (e.isolated_link + 1) as u32,
+                            time_s: self.time_s,
+                            residual,
+                        }
+                    }
+                    StopCause::Fault(fault) => StopReason::ObserverFault { fault },
+                };
+                if matches!(reason, StopReason::Collision { .. }) && !self.settings.react {
+                    // Report only: nothing is held, so the supervisor must not wait for a
+                    // release that never comes.
+                    self.monitor.release_reaction();
+                    return;
+                }
+                self.reaction_hold = true;
+                self.brake();
+                self.emit(CycleEvent::Stopped {
+                    cycle: self.cycle,
+                    reason,
+                    fri,
+                });
+            }
+            ReactionRequest::Resume => {
+                if self.reaction_hold {
+                    self.reaction_hold = false;
+                    // The paper's pause-then-resume: continue the interrupted move.
+                    if !self.operator_stop
+                        && let Some(t) = self.interrupted_target.take()
+                    {
+                        self.pending_target = Some(t);
+                    }
+                    self.emit(CycleEvent::Resumed { cycle: self.cycle });
+                }
+            }
+        }
+    }
+}

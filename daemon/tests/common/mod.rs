@@ -1,0 +1,152 @@
+//! What the end-to-end tests share: the service in-process (`fri_service::testkit`) against
+//! the mock robot over UDP loopback, driven through the operator socket.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs, dead_code)]
+
+use std::net::SocketAddr;
+use std::time::Duration;
+
+use fri_api::client::Client;
+use fri_api::protocol::Command;
+use fri_service::config::Config;
+use fri_service::testkit::{InProcess, local_config};
+use mock_robot::SimulationConfig;
+use mock_robot::TimingMode;
+use serde_json::Value;
+
+pub struct Harness {
+    pub dir: tempfile::TempDir,
+    pub service: InProcess,
+    pub fri: SocketAddr,
+}
+
+pub fn test_config(dir: &std::path::Path) -> Config {
+    let mut c = local_config(dir, "e2e");
+    // Faster moves than the conservative defaults keep the tests short.
+    c.fri.max_joint_step = 1.0e-3;
+    c.motion.max_velocity = [0.9; 7];
+    c.motion.max_acceleration = [5.0; 7];
+    c.motion.max_jerk = [100.0; 7];
+    c.estimation.average_s = 0.2;
+    c.estimation.settle_window_s = 0.05;
+    c.estimation.settle_timeout_s = 0.5;
+    c
+}
+
+impl Harness {
+    pub async fn start(config: Config, dir: tempfile::TempDir) -> Self {
+        let service = InProcess::start(config).await.unwrap();
+        Self {
+            dir,
+            fri: service.fri,
+            service,
+        }
+    }
+
+    pub async fn client(&self) -> Client {
+        self.service.client().await.unwrap()
+    }
+
+    pub async fn stop(self) -> tempfile::TempDir {
+        self.service.stop().await.unwrap();
+        self.dir
+    }
+}
+
+pub fn sim(payload: bool, seed: u64) -> SimulationConfig {
+    let mut c = SimulationConfig {
+        seed,
+        ..SimulationConfig::default()
+    };
+    c.payload.attached_at_start = payload;
+    c
+}
+
+/// The 6-pose ±7° tare of the tests.
+pub fn six_pose_tare() -> Command {
+    Command::Tare {
+        around: None,
+        poses: Some(6),
+        step_deg: Some(7.0),
+        pattern: None,
+    }
+}
+
+/// `config` armed, reacting with a stop.
+pub fn armed_to_stop(mut config: Config) -> Config {
+    config.observer.armed = true;
+    config.reaction.policy = fri_service::config::ReactionMode::Stop;
+    config
+}
+
+/// An 80 N half-sine push of 0.3 s on link 4 (along y of its frame) starting at `onset_s`.
+pub fn push_on_link_4(onset_s: f64) -> mock_robot::contact::ContactSpec {
+    mock_robot::contact::ContactSpec {
+        link: 4,
+        point_m: [0.0, 0.0, 0.0],
+        onset_s,
+        profile: mock_robot::contact::ContactProfile::HalfSine {
+            peak_force_n: [0.0, 80.0, 0.0],
+            duration_s: 0.3,
+        },
+    }
+}
+
+pub fn lockstep() -> TimingMode {
+    TimingMode::Lockstep {
+        answer_timeout: Duration::from_millis(200),
+    }
+}
+
+pub async fn call(c: &mut Client, cmd: Command) -> Result<Value, fri_api::protocol::OperatorError> {
+    c.call(cmd, |_, _| {}).await.unwrap()
+}
+
+pub async fn wait_connected(c: &mut Client) -> Value {
+    for _ in 0..500 {
+        let s = call(c, Command::Status).await.unwrap();
+        if s["connected"].as_bool() == Some(true) {
+            return s;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    panic!("service never saw the controller");
+}
+
+/// Events collected by [`collect_watch`].
+pub type Collected = std::sync::Arc<std::sync::Mutex<Vec<(String, Value)>>>;
+
+/// Collects every event of a `watch` (with every `state_every`-th state) on its own connection;
+/// returns once the service confirmed the subscription (its `watching` event).
+pub async fn collect_watch(mut watcher: Client, state_every: Option<u32>) -> Collected {
+    let events: Collected = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let sink = events.clone();
+    let (subscribed, confirmed) = tokio::sync::oneshot::channel();
+    let mut subscribed = Some(subscribed);
+    tokio::spawn(async move {
+        let _ = watcher
+            .call(Command::Watch { state_every }, |e, d| {
+                if e == "watching" {
+                    if let Some(tx) = subscribed.take() {
+                        let _ = tx.send(());
+                    }
+                    return;
+                }
+                sink.lock().unwrap().push((e.to_owned(), d.clone()));
+            })
+            .await;
+    });
+    confirmed.await.expect("watch never confirmed");
+    events
+}
+
+/// Waits until an event matching `pred` was collected (bounded, so a missing event fails).
+pub async fn wait_event(events: &Collected, what: &str, pred: impl Fn(&str, &Value) -> bool) {
+    let deadline = std::time::Instant::now() + Duration::from_secs(20);
+    loop {
+        if events.lock().unwrap().iter().any(|(e, d)| pred(e, d)) {
+            return;
+        }
+        assert!(std::time::Instant::now() < deadline, "no {what} event");
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+}

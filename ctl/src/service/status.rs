@@ -5,7 +5,7 @@ use std::io::{self, Write};
 use clap::Args;
 
 use fri_api::protocol::Command;
-use fri_api::results::{RejectionCounters, StatusResult};
+use fri_api::results::{RejectionCounters, ServiceState, StatusResult, StopCause};
 
 use super::JsonFlag;
 use super::format::{fixed, joint_header, joint_row, joint_row_deg, ms, percent, xyz_mm, yes_no};
@@ -55,6 +55,23 @@ pub(super) fn print(r: &StatusResult, out: &mut dyn Write) -> io::Result<()> {
         "NOT connected (no measurement within the timeout)"
     };
     writeln!(out, "controller     {link}")?;
+    match &r.state {
+        Some(ServiceState::Stopped { cause, .. } | ServiceState::Fault { cause, .. }) => {
+            let why = match cause {
+                StopCause::Operator => "operator stop; `resume` releases it".to_owned(),
+                StopCause::Collision { link, time_s, .. } => format!(
+                    "collision reaction, contact on link {link} at t = {} s; `resume` releases it",
+                    fixed(*time_s, 3)
+                ),
+                StopCause::ObserverFault { .. } => {
+                    "the collision monitor faulted; `resume` releases it".to_owned()
+                }
+            };
+            writeln!(out, "state          {} ({why})", r.state.as_ref().map_or("", |s| s.word()))?;
+        }
+        Some(state) => writeln!(out, "state          {}", state.word())?,
+        None => {}
+    }
     if let Some(f) = &r.fri {
         writeln!(
             out,

@@ -127,13 +127,13 @@ pub fn check(cmd: &str, args: &Map<String, Value>) -> Result<(), OperatorError> 
     for a in ARGUMENTS.iter().filter(|a| a.commands.contains(&cmd)) {
         match args.get(a.field) {
             None | Some(Value::Null) => {}
-            Some(v) => check_argument(a, v).map_err(invalid)?,
+            Some(v) => check_argument(a, v)?,
         }
     }
     Ok(())
 }
 
-fn check_argument(a: &Argument, value: &Value) -> Result<(), String> {
+fn check_argument(a: &Argument, value: &Value) -> Result<(), OperatorError> {
     let Some(n) = a.elements else {
         return check_element(a, a.field, 0, value);
     };
@@ -146,38 +146,42 @@ fn check_argument(a: &Argument, value: &Value) -> Result<(), String> {
         Value::Array(items) if items.len() == n => {
             for (i, item) in items.iter().enumerate() {
                 let name = format!("{}[{i}]", a.field);
-                check_element(a, &name, i, item).map_err(|e| {
+                check_element(a, &name, i, item).map_err(|mut e| {
                     if n == JOINTS {
-                        format!("{e} (joint {})", i + 1)
-                    } else {
-                        e
+                        e.message = format!("{} (joint {})", e.message, i + 1);
                     }
+                    e
                 })?;
             }
             Ok(())
         }
-        _ => Err(format!(
+        _ => Err(invalid(format!(
             "{} must be an array of {n} numbers ({what})",
             a.field
-        )),
+        ))),
     }
 }
 
-fn check_element(a: &Argument, name: &str, index: usize, value: &Value) -> Result<(), String> {
+fn check_element(
+    a: &Argument,
+    name: &str,
+    index: usize,
+    value: &Value,
+) -> Result<(), OperatorError> {
     let range = (a.range)(index);
     let kind = match a.kind {
         Kind::Number => "a number",
         Kind::Count => "an integer",
     };
     let Some(x) = value.as_f64() else {
-        return Err(format!("{name} must be {kind} in {range}"));
+        return Err(invalid(format!("{name} must be {kind} in {range}")));
     };
-    range.check(name, x)?;
+    range.check(name, x).map_err(OperatorError::out_of_range)?;
     if a.kind == Kind::Count && value.as_u64().is_none() {
-        return Err(format!(
+        return Err(invalid(format!(
             "{name} = {} must be an integer in {range}",
             bounds::number(x)
-        ));
+        )));
     }
     Ok(())
 }
@@ -185,7 +189,32 @@ fn check_element(a: &Argument, name: &str, index: usize, value: &Value) -> Resul
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cause::Cause;
     use serde_json::json;
+
+    #[test]
+    fn an_out_of_range_value_carries_field_value_and_range_as_its_cause() {
+        let Value::Object(map) = json!({"thresholds": [6.0, 6.0, 6.0, 6.0, 6.0, 6.0, 1e9]}) else {
+            panic!("not an object");
+        };
+        let e = check("collision", &map).expect_err("1e9 Nm is out of range");
+        assert!(e.message.contains("(joint 7)"), "{}", e.message);
+        match e.cause.as_deref() {
+            Some(Cause::OutOfRange {
+                field,
+                value,
+                max,
+                unit,
+                ..
+            }) => {
+                assert_eq!(field, "thresholds[6]");
+                assert_eq!(*value, 1e9);
+                assert!(*max < 1e9);
+                assert_eq!(unit, "Nm");
+            }
+            other => panic!("cause {other:?}"),
+        }
+    }
 
     fn message(cmd: &str, args: Value) -> String {
         let Value::Object(map) = args else {

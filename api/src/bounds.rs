@@ -35,22 +35,43 @@ impl Range {
         value.is_finite() && value >= self.min && value <= self.max
     }
 
-    /// `Ok` inside the interval, otherwise "`name` = value unit is outside min…max unit".
-    pub fn check(&self, name: &str, value: f64) -> Result<(), String> {
+    /// `Ok` inside the interval, otherwise the field, its value and this range as data (its text
+    /// reads "`name` = value unit is outside min…max unit").
+    pub fn check(&self, name: &str, value: f64) -> Result<(), OutOfRange> {
         if self.contains(value) {
             Ok(())
         } else {
-            Err(format!(
-                "{name} = {} is outside {self}",
-                with_unit(value, self.unit)
-            ))
+            Err(OutOfRange {
+                field: name.to_owned(),
+                value,
+                range: *self,
+            })
         }
     }
 
     /// The same check for an integer (counts, sizes).
-    pub fn check_count(&self, name: &str, value: u64) -> Result<(), String> {
+    pub fn check_count(&self, name: &str, value: u64) -> Result<(), OutOfRange> {
         // Every count we bound is far below 2^53, so the conversion is exact inside the range.
         self.check(name, value as f64)
+    }
+}
+
+/// A value outside its allowed range, as data: the field (dotted or indexed name), the value and
+/// the range with its unit.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{field} = {} is outside {range}", with_unit(*.value, range.unit))]
+pub struct OutOfRange {
+    /// The field, e.g. `thresholds[6]` or `step_deg`.
+    pub field: String,
+    /// The rejected value, in the range's unit (NaN and infinities included).
+    pub value: f64,
+    /// The allowed range.
+    pub range: Range,
+}
+
+impl From<OutOfRange> for String {
+    fn from(e: OutOfRange) -> Self {
+        e.to_string()
     }
 }
 
@@ -221,18 +242,31 @@ mod tests {
     #[test]
     fn messages_name_the_value_the_unit_and_the_range() {
         assert_eq!(
-            threshold(3).check("thresholds[3]", 1e300),
+            threshold(3)
+                .check("thresholds[3]", 1e300)
+                .map_err(String::from),
             Err("thresholds[3] = 1e300 Nm is outside 0.1…25 Nm".to_owned())
         );
         assert_eq!(
-            gain(0.001).check("gains[0]", 1e308),
+            gain(0.001).check("gains[0]", 1e308).map_err(String::from),
             Err("gains[0] = 1e308 1/s is outside 1…2000 1/s".to_owned())
         );
         assert_eq!(
-            POSES.check_count("poses", 1),
+            POSES.check_count("poses", 1).map_err(String::from),
             Err("poses = 1 is outside 2…100".to_owned())
         );
-        assert!(MASS.check("mass", f64::NAN).unwrap_err().contains("NaN"));
+        assert!(
+            MASS.check("mass", f64::NAN)
+                .unwrap_err()
+                .to_string()
+                .contains("NaN")
+        );
+        // The error carries its data, not only its text.
+        let e = threshold(6).check("thresholds[6]", 30.0).unwrap_err();
+        assert_eq!(
+            (e.field.as_str(), e.value, e.range),
+            ("thresholds[6]", 30.0, threshold(6))
+        );
         assert!(threshold(6).check("t", 9.5).is_ok());
         assert!(threshold(6).check("t", 9.51).is_err());
         assert_eq!(gain(0.01).max, 200.0);

@@ -59,6 +59,20 @@ pub enum Cause {
         /// The controller's view in its last measurement, if any.
         fri: Option<FriContext>,
     },
+    /// A request argument outside its allowed range (nothing was done).
+    OutOfRange {
+        /// The field, e.g. `thresholds[6]` (joint 7 is index 6).
+        field: String,
+        /// The rejected value, in `unit` (`null` in JSON for NaN or an infinity).
+        #[serde(deserialize_with = "crate::results::lenient::nan")]
+        value: f64,
+        /// Smallest allowed value, in `unit`.
+        min: f64,
+        /// Largest allowed value, in `unit`.
+        max: f64,
+        /// The unit (empty for counts).
+        unit: String,
+    },
     /// The controller did not enter command mode in time.
     CommandModeNotEntered {
         /// The controller's view in its last measurement, if any.

@@ -196,6 +196,19 @@ impl OperatorError {
         }
     }
 
+    /// The `invalid-arguments` error for a value outside its range, with the field, value and
+    /// range as its cause.
+    pub fn out_of_range(e: crate::bounds::OutOfRange) -> Self {
+        let cause = crate::cause::Cause::OutOfRange {
+            field: e.field.clone(),
+            value: e.value,
+            min: e.range.min,
+            max: e.range.max,
+            unit: e.range.unit.to_owned(),
+        };
+        Self::new(ErrorCode::InvalidArguments, e.to_string()).with_cause(cause)
+    }
+
     /// This error with its typed cause.
     pub fn with_cause(mut self, cause: crate::cause::Cause) -> Self {
         self.cause = Some(Box::new(cause));

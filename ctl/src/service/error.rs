@@ -52,6 +52,15 @@ fn cause_lines(cause: &Cause) -> Vec<String> {
             fixed(*change_nm, 2),
             fixed(*limit_nm, 2)
         )],
+        Cause::OutOfRange {
+            field,
+            value,
+            min,
+            max,
+            unit,
+        } => vec![format!(
+            "cause: `{field}` = {value} {unit} is outside the allowed range {min}…{max} {unit}; nothing was done"
+        )],
         Cause::OperatorStop => {
             vec!["cause: stopped by the operator (`fri-ctl resume` releases the arm)".to_owned()]
         }

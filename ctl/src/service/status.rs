@@ -67,7 +67,11 @@ pub(super) fn print(r: &StatusResult, out: &mut dyn Write) -> io::Result<()> {
                     "the collision monitor faulted; `resume` releases it".to_owned()
                 }
             };
-            writeln!(out, "state          {} ({why})", r.state.as_ref().map_or("", |s| s.word()))?;
+            writeln!(
+                out,
+                "state          {} ({why})",
+                r.state.as_ref().map_or("", |s| s.word())
+            )?;
         }
         Some(state) => writeln!(out, "state          {}", state.word())?,
         None => {}

@@ -246,19 +246,19 @@ fn invalid(key: String, reason: String) -> ConfigError {
 fn in_range(key: &str, value: f64, range: Range) -> Result<(), ConfigError> {
     range
         .check("", value)
-        .map_err(|e| invalid(key.to_owned(), reason(&e)))
+        .map_err(|e| invalid(key.to_owned(), reason(&e.to_string())))
 }
 
 fn in_range_at(key: &str, index: usize, value: f64, range: Range) -> Result<(), ConfigError> {
     range
         .check("", value)
-        .map_err(|e| invalid(key_at(key, index), reason(&e)))
+        .map_err(|e| invalid(key_at(key, index), reason(&e.to_string())))
 }
 
 fn count_in_range(key: &str, value: usize, range: Range) -> Result<(), ConfigError> {
     range
         .check_count("", value as u64)
-        .map_err(|e| invalid(key.to_owned(), reason(&e)))
+        .map_err(|e| invalid(key.to_owned(), reason(&e.to_string())))
 }
 
 /// `Range::check` with an empty name gives " = v is outside …"; the key is shown separately.

@@ -42,7 +42,7 @@ impl ServiceCore {
                     fri_api::bounds::threshold(j)
                         .check(&format!("thresholds[{j}]"), t[j])
                         .and_then(|()| gain.check(&format!("gains[{j}]"), g[j]))
-                        .map_err(|e| err(ErrorCode::InvalidArguments, e))?;
+                        .map_err(OperatorError::out_of_range)?;
                 }
                 let mut config = self.config.clone();
                 config.observer.thresholds = t;

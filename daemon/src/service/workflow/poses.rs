@@ -31,7 +31,8 @@ impl ServiceCore {
         fri_api::bounds::POSES
             .check_count("poses", count as u64)
             .and_then(|()| fri_api::bounds::STEP_DEG.check("step_deg", step))
-            .and_then(|()| fri_api::bounds::check_around(&around, &start_q, step, max_distance))
+            .map_err(OperatorError::out_of_range)?;
+        fri_api::bounds::check_around(&around, &start_q, step, max_distance)
             .map_err(|e| err(ErrorCode::InvalidArguments, e))?;
         let pattern = pattern_poses(kind, &self.model, &around, count, step).map_err(|e| {
             err(

@@ -124,3 +124,21 @@ pub fn clap_exit(e: &clap::Error, failed: u8) -> u8 {
         None => 0,
     }
 }
+
+/// The process's exit status after a run that returned `result`: a failed write to stdout
+/// decides first (quietly for a closed pipe), then the run's own error, printed on stderr with
+/// its context chain (`{:#}`); `failed` is the binary's status for a failure.
+pub fn exit_status<E: std::fmt::Display>(
+    result: Result<(), E>,
+    stdout: &mut Stdout,
+    failed: u8,
+) -> u8 {
+    match (result, stdout.finish()) {
+        (_, Some(f)) => f.exit_code(failed),
+        (Ok(()), None) => 0,
+        (Err(e), None) => {
+            stderr_line(format_args!("error: {e:#}"));
+            failed
+        }
+    }
+}

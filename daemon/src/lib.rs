@@ -14,3 +14,22 @@ pub mod persistence;
 pub mod recordings;
 pub mod service;
 pub mod testkit;
+
+/// The tokio runtime the daemon and the demo run on: two workers (the FRI loop has its own
+/// thread) and every driver enabled.
+pub fn runtime() -> std::io::Result<tokio::runtime::Runtime> {
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+}
+
+/// Logs to stderr, filtered by `RUST_LOG` or else by `default_filter` (e.g. `info`).
+pub fn init_logging(default_filter: &str) {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default_filter));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .init();
+}

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use anyhow::Context as _;
 use clap::{Parser, Subcommand};
-use fri_api::stdio::{Stdout, clap_exit, stderr_line};
+use fri_api::stdio::{Stdout, clap_exit, exit_status};
 use fri_service::config::Config;
 use fri_service::service::RunningService;
 use tokio::sync::watch;
@@ -38,33 +38,16 @@ fn main() -> ExitCode {
         Ok(cli) => cli,
         Err(e) => return ExitCode::from(clap_exit(&e, EXIT_FAILED)),
     };
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
-    tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .init();
+    fri_service::init_logging("info");
     let mut stdout = Stdout::new();
     let result = match cli.command {
         Cmd::Run { config } => run(config),
     };
-    // A failed write to stdout is reported as such (quietly for a closed pipe).
-    match (result, stdout.finish()) {
-        (_, Some(f)) => ExitCode::from(f.exit_code(EXIT_FAILED)),
-        (Ok(()), None) => ExitCode::SUCCESS,
-        (Err(e), None) => {
-            stderr_line(format_args!("error: {e:#}"));
-            ExitCode::from(EXIT_FAILED)
-        }
-    }
+    ExitCode::from(exit_status(result, &mut stdout, EXIT_FAILED))
 }
 
 fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
-    tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()
-        .context("starting the tokio runtime")
+    fri_service::runtime().context("starting the tokio runtime")
 }
 
 fn run(config: Option<PathBuf>) -> anyhow::Result<()> {

@@ -21,7 +21,6 @@ use fri::session::SessionConfig;
 use fri_api::ipc::flags;
 use fri_service::config::Config;
 use fri_service::ipc::RobotState;
-use fri_service::motion::MotionLimits;
 use fri_service::service::build_monitor;
 use fri_service::service::cycle::{CycleEvent, CycleProcessor, CycleRequest, ProcessorSettings};
 use fri_service::service::output::{AbortReason, ResyncReason, StopReason};
@@ -111,18 +110,8 @@ impl Rig {
         let monitor = build_monitor(config, dynamics::lwr4()).unwrap();
         let (requests, request_rx) = sync_channel(64);
         let (event_tx, events) = sync_channel(1 << 16);
-        let m = &config.motion;
         let processor = CycleProcessor::new(
-            ProcessorSettings {
-                cycle_s: config.fri.cycle_s,
-                limits: MotionLimits {
-                    velocity: m.max_velocity.into(),
-                    acceleration: m.max_acceleration.into(),
-                    jerk: m.max_jerk.into(),
-                },
-                react: config.reaction.policy != fri_service::config::ReactionMode::Report,
-                armed: config.observer.armed,
-            },
+            ProcessorSettings::from_config(config),
             monitor,
             request_rx,
             event_tx,

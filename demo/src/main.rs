@@ -7,7 +7,7 @@ use std::process::ExitCode;
 
 use anyhow::Context as _;
 use clap::{Parser, Subcommand};
-use fri_api::stdio::{Stdout, clap_exit, stderr_line};
+use fri_api::stdio::{Stdout, clap_exit, exit_status};
 use fri_demo::run::{DemoOptions, run as run_demo};
 use mock_robot::TimingMode;
 
@@ -47,12 +47,7 @@ fn main() -> ExitCode {
         Ok(cli) => cli,
         Err(e) => return ExitCode::from(clap_exit(&e, EXIT_FAILED)),
     };
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
-    tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .init();
+    fri_service::init_logging("warn");
     let mut stdout = Stdout::new();
     let result = match cli.command {
         Cmd::Demo {
@@ -62,23 +57,11 @@ fn main() -> ExitCode {
             lockstep,
         } => demo(json, out, seed, lockstep, &mut stdout),
     };
-    // A failed write to stdout is reported as such (quietly for a closed pipe).
-    match (result, stdout.finish()) {
-        (_, Some(f)) => ExitCode::from(f.exit_code(EXIT_FAILED)),
-        (Ok(()), None) => ExitCode::SUCCESS,
-        (Err(e), None) => {
-            stderr_line(format_args!("error: {e:#}"));
-            ExitCode::from(EXIT_FAILED)
-        }
-    }
+    ExitCode::from(exit_status(result, &mut stdout, EXIT_FAILED))
 }
 
 fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
-    tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()
-        .context("starting the tokio runtime")
+    fri_service::runtime().context("starting the tokio runtime")
 }
 
 fn demo(

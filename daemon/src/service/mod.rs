@@ -32,7 +32,6 @@ use tokio::sync::watch;
 
 use crate::config::{Config, ReactionMode};
 use crate::ipc::{IpcNames, IpcThread};
-use crate::motion::MotionLimits;
 use crate::operator::server::{self, AccessPolicy, ServerLimits};
 use crate::persistence::StateStore;
 use core::{ServiceCore, compensation};
@@ -112,17 +111,7 @@ impl RunningService {
             .context("starting the stream thread")?;
 
         let monitor = build_monitor(&config, model.clone()).context("observer configuration")?;
-        let m = &config.motion;
-        let settings = ProcessorSettings {
-            cycle_s: config.fri.cycle_s,
-            limits: MotionLimits {
-                velocity: SVector::from(m.max_velocity),
-                acceleration: SVector::from(m.max_acceleration),
-                jerk: SVector::from(m.max_jerk),
-            },
-            react: config.reaction.policy != ReactionMode::Report,
-            armed: config.observer.armed,
-        };
+        let settings = ProcessorSettings::from_config(&config);
         let processor = CycleProcessor::new(settings, monitor, request_rx, event_tx);
         if let Some(p) = &payload {
             request_tx

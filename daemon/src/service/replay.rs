@@ -14,7 +14,6 @@ use fri::wire::{CMD_LEN, MSR_LEN, Measurement};
 use super::build_monitor;
 use super::cycle::{CycleEvent, CycleProcessor, CycleRequest, ProcessorSettings};
 use crate::config::Config;
-use crate::motion::MotionLimits;
 
 /// A session plus processor fed with a recorded measurement whose sequence counter and torques
 /// change every cycle (so nothing is rejected as a duplicate or flagged as stale).
@@ -45,17 +44,11 @@ impl Replay {
         let monitor = build_monitor(&config, dynamics::lwr4())?;
         let (requests, request_rx) = sync_channel(64);
         let (event_tx, events) = sync_channel(1 << 16);
-        let m = &config.motion;
         let processor = CycleProcessor::new(
             ProcessorSettings {
-                cycle_s: config.fri.cycle_s,
-                limits: MotionLimits {
-                    velocity: m.max_velocity.into(),
-                    acceleration: m.max_acceleration.into(),
-                    jerk: m.max_jerk.into(),
-                },
                 react: true,
                 armed: true,
+                ..ProcessorSettings::from_config(&config)
             },
             monitor,
             request_rx,

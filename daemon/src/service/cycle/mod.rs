@@ -91,6 +91,23 @@ pub struct ProcessorSettings {
     pub armed: bool,
 }
 
+impl ProcessorSettings {
+    /// The settings `config` asks for: its cycle, motion limits, reaction mode and arming.
+    pub fn from_config(config: &crate::config::Config) -> Self {
+        let m = &config.motion;
+        Self {
+            cycle_s: config.fri.cycle_s,
+            limits: MotionLimits {
+                velocity: SVector::from(m.max_velocity),
+                acceleration: SVector::from(m.max_acceleration),
+                jerk: SVector::from(m.max_jerk),
+            },
+            react: config.reaction.policy != crate::config::ReactionMode::Report,
+            armed: config.observer.armed,
+        }
+    }
+}
+
 /// Per-cycle application logic of the service (see the module documentation).
 pub struct CycleProcessor {
     settings: ProcessorSettings,

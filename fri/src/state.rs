@@ -28,7 +28,7 @@ pub struct EndpointCounters {
 
 /// Everything known after one cycle: the newest measurement, what we sent, and the counters.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct RobotState {
+pub struct EndpointState {
     /// False until the first measurement was accepted; all values are then defaults.
     pub valid: bool,
     /// Newest accepted measurement.
@@ -53,7 +53,7 @@ pub struct RobotState {
     pub cycle: u64,
 }
 
-impl Default for RobotState {
+impl Default for EndpointState {
     fn default() -> Self {
         Self {
             valid: false,
@@ -69,7 +69,7 @@ impl Default for RobotState {
     }
 }
 
-impl RobotState {
+impl EndpointState {
     /// Measured joint positions, rad.
     pub fn measured_joint_positions(&self) -> [f64; JOINTS] {
         self.measurement.data.msr_jnt_pos

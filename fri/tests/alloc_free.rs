@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use fri::endpoint::{Cycle, CycleHook, CycleOutput, Responder, triple_buffer};
 use fri::handshake::{KrlStrategy, RequestKind};
 use fri::session::{DesiredCommand, Session, SessionConfig};
-use fri::state::RobotState;
+use fri::state::EndpointState;
 use fri::wire::{CMD_LEN, Command, InterfaceState, MSR_LEN, Measurement};
 
 #[global_allocator]
@@ -39,8 +39,8 @@ fn one_cycle_allocates_nothing() {
         added_torque: [0.5; 7],
         ..Default::default()
     };
-    let (mut writer, _reader) = triple_buffer(RobotState::default());
-    let mut state = RobotState::default();
+    let (mut writer, _reader) = triple_buffer(EndpointState::default());
+    let mut state = EndpointState::default();
     let mut out = [0u8; CMD_LEN];
     let mut msr_out = [0u8; MSR_LEN];
     let t0 = Instant::now();
@@ -115,7 +115,7 @@ fn the_endpoint_loop_body_allocates_nothing_with_events_every_cycle() {
             datagram(s, state)
         })
         .collect();
-    let (mut writer, _reader) = triple_buffer(RobotState::default());
+    let (mut writer, _reader) = triple_buffer(EndpointState::default());
     let mut out = [0u8; CMD_LEN];
     let t0 = Instant::now();
     responder.cycle(&datagrams[0], src, t0, &mut out).unwrap();

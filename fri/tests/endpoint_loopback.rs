@@ -12,7 +12,7 @@ use fri::endpoint::{
     monitor_hook,
 };
 use fri::handshake::{KrlStrategy, RequestKind};
-use fri::state::RobotState;
+use fri::state::EndpointState;
 use fri::wire::{CommandFlags, CommandPacket, InterfaceState};
 
 fn config() -> EndpointConfig {
@@ -67,7 +67,7 @@ impl Peer {
 }
 
 /// Polls the snapshot until `done` holds (2 s at most).
-fn wait_for(endpoint: &Endpoint, done: impl Fn(&RobotState) -> bool) -> RobotState {
+fn wait_for(endpoint: &Endpoint, done: impl Fn(&EndpointState) -> bool) -> EndpointState {
     let deadline = Instant::now() + Duration::from_secs(2);
     loop {
         let s = endpoint.latest();

@@ -38,7 +38,7 @@ pub(crate) const WORKFLOW_THRESHOLD_FACTOR: f64 = 2.0;
 pub(crate) const ARRIVAL_TIMEOUT_S: f64 = 2.0;
 
 /// Where the service reads FRI statistics for `status` (the endpoint's snapshot).
-pub type FriStateSource = Arc<dyn Fn() -> fri::state::RobotState + Send + Sync>;
+pub type FriStateSource = Arc<dyn Fn() -> fri::state::EndpointState + Send + Sync>;
 
 /// Persistent, operator-visible state.
 #[derive(Debug, Default)]

@@ -11,7 +11,7 @@ use std::time::Duration;
 use anyhow::Context;
 use clap::Parser;
 use fri::endpoint::{Cycle, CycleOutput, Endpoint, EndpointConfig, RealtimeConfig, SocketConfig};
-use fri::state::RobotState;
+use fri::state::EndpointState;
 use serde_json::json;
 
 /// Answer an FRI 1.x controller in monitor mode and print what it sends.
@@ -116,7 +116,7 @@ fn run(args: &Args) -> Result<(), Failure> {
     };
     // The hook runs in the real-time thread: it only counts and hands a copy of the state to
     // this thread through a bounded channel (try_send never blocks; a full channel drops).
-    let (samples, printed) = sync_channel::<RobotState>(16);
+    let (samples, printed) = sync_channel::<EndpointState>(16);
     let every = args.every;
     let mut answered = 0u64;
     let hook = move |cycle: &Cycle<'_>, _: &mut CycleOutput| {
@@ -159,7 +159,7 @@ fn run(args: &Args) -> Result<(), Failure> {
     written.map_err(Failure::Stdout)
 }
 
-fn json_line(s: &RobotState) -> serde_json::Value {
+fn json_line(s: &EndpointState) -> serde_json::Value {
     let m = &s.measurement;
     let st = &s.statistics;
     json!({
@@ -197,7 +197,7 @@ fn row(out: &mut dyn Write, label: &str, unit: &str, values: &[f64]) -> std::io:
     writeln!(out, "  {label:<8}{unit:<6}{}", cells.join(" "))
 }
 
-fn print_table(out: &mut dyn Write, s: &RobotState, first: bool) -> std::io::Result<()> {
+fn print_table(out: &mut dyn Write, s: &EndpointState, first: bool) -> std::io::Result<()> {
     let m = &s.measurement;
     let i = &m.interface;
     let st = &s.statistics;

@@ -17,7 +17,7 @@ use crate::session::{
     Arrival, DesiredCommand, ReplyError, ReplyInfo, Session, SessionConfig, SessionEvent,
     StepError, Verdict,
 };
-use crate::state::{EndpointCounters, RobotState};
+use crate::state::{EndpointCounters, EndpointState};
 use crate::wire::CMD_LEN;
 
 /// What the hook may change each cycle.
@@ -33,7 +33,7 @@ pub struct CycleOutput {
 #[derive(Debug, Clone, Copy)]
 pub struct Cycle<'a> {
     /// The robot state after the measurement was accepted (what `Endpoint::latest` shows).
-    pub state: &'a RobotState,
+    pub state: &'a EndpointState,
     /// The session's verdict on the measurement answered in this cycle.
     pub verdict: Verdict,
     /// Session events raised since the previous cycle, oldest first.
@@ -85,7 +85,7 @@ pub fn monitor_hook() -> impl CycleHook {
 pub struct Responder<H> {
     session: Session,
     hook: H,
-    state: RobotState,
+    state: EndpointState,
     output: CycleOutput,
 }
 
@@ -95,7 +95,7 @@ impl<H: CycleHook> Responder<H> {
         Self {
             session: Session::new(config),
             hook,
-            state: RobotState::default(),
+            state: EndpointState::default(),
             output: CycleOutput {
                 desired: DesiredCommand::default(),
                 request: None,
@@ -202,7 +202,7 @@ impl<H: CycleHook> Responder<H> {
     }
 
     /// The state as of the last call (what the endpoint publishes).
-    pub fn state(&self) -> &RobotState {
+    pub fn state(&self) -> &EndpointState {
         &self.state
     }
 

@@ -28,7 +28,7 @@ use std::time::Instant;
 
 use crate::handshake::{KrlStrategy, RequestKind};
 use crate::session::{DesiredCommand, SessionConfig};
-use crate::state::RobotState;
+use crate::state::EndpointState;
 use crate::wire::CMD_LEN;
 
 /// Receive buffer size of the loop: larger than a measurement so oversized datagrams are seen
@@ -100,7 +100,7 @@ pub enum EndpointError {
 pub struct Endpoint {
     thread: Option<JoinHandle<()>>,
     stop: Arc<AtomicBool>,
-    reader: Mutex<Reader<RobotState>>,
+    reader: Mutex<Reader<EndpointState>>,
     commands: SyncSender<EndpointMessage>,
     local_addr: SocketAddr,
 }
@@ -114,7 +114,7 @@ impl Endpoint {
             .ok()
             .and_then(|a| a.as_socket())
             .unwrap_or(config.socket.bind);
-        let (writer, reader) = triple_buffer(RobotState::default());
+        let (writer, reader) = triple_buffer(EndpointState::default());
         let (commands, queue) = sync_channel(config.queue_capacity.max(1));
         let stop = Arc::new(AtomicBool::new(false));
         let mut rt = Loop {
@@ -149,7 +149,7 @@ impl Endpoint {
 
     /// A copy of the newest state. The mutex only serialises non-real-time readers among
     /// themselves; the real-time thread never touches it.
-    pub fn latest(&self) -> RobotState {
+    pub fn latest(&self) -> EndpointState {
         match self.reader.lock() {
             Ok(mut r) => *r.latest(),
             Err(poisoned) => *poisoned.into_inner().latest(),
@@ -198,7 +198,7 @@ impl Drop for Endpoint {
 struct Loop<H> {
     socket: socket2::Socket,
     responder: Responder<H>,
-    writer: Writer<RobotState>,
+    writer: Writer<EndpointState>,
     queue: Receiver<EndpointMessage>,
     stop: Arc<AtomicBool>,
 }

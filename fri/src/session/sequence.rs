@@ -50,7 +50,7 @@ pub struct SequenceCounters {
 
 /// How an accepted measurement follows the previous measurement the application answered.
 ///
-/// Read it from [`super::Session::last_arrival`] or `RobotState::arrival` instead of
+/// Read it from [`super::Session::last_arrival`] or `EndpointState::arrival` instead of
 /// recomputing it from `sendSeqCount`: it already folds in measurements that were accepted but
 /// superseded before they were answered, and it marks the start of every new epoch (after which
 /// differences to older measurements are meaningless).

@@ -44,6 +44,11 @@ async fn collision_during_a_workflow_stops_the_arm_and_aborts() {
     .await
     .unwrap_err();
     assert_eq!(e.code, fri_api::protocol::ErrorCode::NotReady, "{e:?}");
+    // The watch is another connection: its events are not ordered with this reply.
+    wait_event(&events, "stopped by the collision", |e, d| {
+        e == "stopped" && d["reason"] == "collision"
+    })
+    .await;
     {
         let evs = events.lock().unwrap();
         let collision = evs

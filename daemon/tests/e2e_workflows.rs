@@ -72,11 +72,48 @@ async fn tare_then_estimate_through_the_socket_and_persist_after_restart() {
         status["fri"]["statistics"]["sequence"]["rebinds"], 1,
         "{status}"
     );
+    // A pattern elsewhere than the tare's is refused before anything moves, naming both centres.
+    let mut elsewhere: Vec<f64> = tare["around"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    elsewhere[0] += 0.02;
+    let before = call(&mut c, Command::Status).await.unwrap()["q"].clone();
+    let refused = call(
+        &mut c,
+        Command::EstimatePayload {
+            around: Some(elsewhere.try_into().unwrap()),
+            poses: Some(6),
+            step_deg: Some(7.0),
+            pattern: None,
+            use_tare: None,
+            apply: Some(true),
+        },
+    )
+    .await
+    .unwrap_err();
+    assert_eq!(
+        refused.code,
+        fri_api::protocol::ErrorCode::InvalidArguments,
+        "{refused:?}"
+    );
+    assert!(refused.message.contains("stored tare"), "{refused:?}");
+    let after = call(&mut c, Command::Status).await.unwrap()["q"].clone();
+    let moved = (0..7)
+        .map(|j| (after[j].as_f64().unwrap() - before[j].as_f64().unwrap()).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        moved < 1e-3,
+        "the refused estimate moved the arm by {moved} rad"
+    );
+    // Without `around`/`poses` the estimate runs at the tare's poses.
     let est = call(
         &mut c,
         Command::EstimatePayload {
             around: None,
-            poses: Some(6),
+            poses: None,
             step_deg: Some(7.0),
             pattern: None,
             use_tare: None,
@@ -391,6 +428,11 @@ async fn disarm_grasp_apply_arm_and_a_contact_stops_the_arm() {
     );
     let status = call(&mut c, Command::Status).await.unwrap();
     assert_eq!(status["stopped"], true, "the arm is held: {status}");
+    // The watch is another connection: its events are not ordered with this reply.
+    wait_event(&events, "stopped by the collision", |e, d| {
+        e == "stopped" && d["reason"] == "collision"
+    })
+    .await;
     {
         let evs = events.lock().unwrap();
         let collisions: Vec<f64> = evs

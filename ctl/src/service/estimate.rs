@@ -26,8 +26,9 @@ pose. Keep the workspace clear; `fri-ctl stop` (from another terminal) holds the
 aborts the workflow. A residual change of more than twice a joint's threshold between poses \
 (a contact) stops the arm.
 
-The stored tare is subtracted when it was taken over the same poses (`--tare true` insists, \
-`--tare false` refuses it).";
+With a stored tare the pattern defaults to the tare's centre and pose count, and the tare is \
+subtracted; a pattern elsewhere is refused before the arm moves (`--tare false` estimates \
+without the tare).";
 
 /// `fri-ctl estimate-payload`.
 #[derive(Debug, Clone, Args)]
@@ -35,7 +36,8 @@ pub struct EstimateArgs {
     /// Pose pattern.
     #[command(flatten)]
     pub pattern: PatternArgs,
-    /// Subtract the stored tare: true or false (default: when it was taken at the same poses).
+    /// Subtract the stored tare: true or false (default: true when a tare is stored; its poses
+    /// are then used).
     #[arg(long, value_name = "BOOL")]
     pub tare: Option<bool>,
     /// Apply the estimate to the collision observer and persist it.

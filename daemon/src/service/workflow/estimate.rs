@@ -31,6 +31,18 @@ impl ServiceCore {
     ) -> Result<EstimateResult, OperatorError> {
         let _guard = self.busy()?;
         let tare = self.persistent(|s| s.tare.clone());
+        // A stored tare fixes the pattern: by default the estimate runs at the tare's poses (a
+        // retry after an abort must not centre on wherever the arm stopped), and a pattern
+        // elsewhere is refused before anything moves instead of silently running untared.
+        let (around, poses) = match (&tare, use_tare) {
+            (Some(t), None | Some(true)) => {
+                let around = around.unwrap_or(t.around);
+                let poses = poses.unwrap_or(t.samples.len());
+                tare_covers(t, &around, poses)?;
+                (Some(around), Some(poses))
+            }
+            _ => (around, poses),
+        };
         let (samples, around) = self
             .run_pattern(around, poses, step_deg, kind, Workflow::Estimate, events)
             .await?;
@@ -119,6 +131,33 @@ impl ServiceCore {
         }
         Ok(result)
     }
+}
+
+/// Largest difference of a pattern centre from the tare's that still counts as the same, rad.
+const SAME_CENTRE_RAD: f64 = 1e-3;
+
+/// `Ok` when the stored tare was taken with `poses` poses around `around`; otherwise the error
+/// names both centres (deg) and what to do.
+fn tare_covers(tare: &Tare, around: &[f64; 7], poses: usize) -> Result<(), OperatorError> {
+    let off = (0..7)
+        .map(|j| (around[j] - tare.around[j]).abs())
+        .fold(0.0, f64::max);
+    if off <= SAME_CENTRE_RAD && poses == tare.samples.len() {
+        return Ok(());
+    }
+    let deg = |q: &[f64; 7]| {
+        let v: Vec<String> = q.iter().map(|x| format!("{:.2}", x.to_degrees())).collect();
+        format!("[{}]", v.join(", "))
+    };
+    Err(err(
+        ErrorCode::InvalidArguments,
+        format!(
+            "the stored tare was taken with {} poses around {} deg, this estimate asks for {poses} poses around {} deg; nothing moved: run `tare` at these poses, leave out `around`/`poses` to use the tare's, or pass use_tare=false to estimate without it",
+            tare.samples.len(),
+            deg(&tare.around),
+            deg(around)
+        ),
+    ))
 }
 
 /// Runs the estimator on the loaded samples, with the tare subtracted sample by sample when

@@ -118,6 +118,7 @@ impl ServiceCore {
         let mut seen_moving = false;
         let mut ended_at = None;
         let mut retries = 0;
+        let mut collision: Option<crate::ipc::CollisionMessage> = None;
         loop {
             let timeout = if seen_moving {
                 MOVE_TIMEOUT_S
@@ -128,6 +129,14 @@ impl ServiceCore {
             tokio::select! {
                 u = updates.recv() => match u {
                     Ok(Update::Snapshot(s)) => {
+                        if let Some(c) = collision.take() {
+                            // Held by the reaction (its stop carries the collision as its cause),
+                            // or reported only: either way the move ends here.
+                            return Err(Self::held_error(&s.state).unwrap_or_else(|| {
+                                err(ErrorCode::Aborted, format!("collision detected (link {}) at {:.3} s (report only: the arm is not held)", c.link, c.time_s))
+                                    .with_cause(Cause::Collision { link: c.link, time_s: c.time_s, residual: c.residual })
+                            }));
+                        }
                         if let Some(e) = self.state_abort(&s, baseline.as_ref(), &thresholds, "during the move: contact? (arm stopped; `resume` to continue)") {
                             // A residual change: hold the arm, as a reaction would.
                             if !s.state.is_held() {
@@ -150,7 +159,9 @@ impl ServiceCore {
                         }
                     }
                     Ok(Update::Event(CycleEvent::Collision(c))) => {
-                        return Err(err(ErrorCode::Aborted, format!("collision detected (link {}) at {:.3} s", c.link, c.time_s)).with_cause(Cause::Collision { link: c.link, time_s: c.time_s, residual: c.residual }));
+                        // The reaction's stop, if any, follows in the same cycle, before the
+                        // cycle's snapshot: end there, with the arm's state settled.
+                        collision = Some(c);
                     }
                     Ok(Update::Event(CycleEvent::Stopped { reason, fri, .. })) => {
                         return Err(Self::stop_error(reason, fri));

@@ -24,6 +24,9 @@ pub enum ServiceState {
         /// The controller's view at the stop.
         fri: FriContext,
     },
+    /// The arm is held but the service missed why (the loop's event was lost); `resume`
+    /// releases it.
+    Held,
     /// The collision monitor faulted and the arm is held.
     Fault {
         /// The stop the fault caused, with the fault.
@@ -42,6 +45,7 @@ impl ServiceState {
             ServiceState::EnteringCommand => "entering-command",
             ServiceState::Commanding => "commanding",
             ServiceState::Moving => "moving",
+            ServiceState::Held => "held",
             ServiceState::Stopped { .. } => "stopped",
             ServiceState::Fault { .. } => "fault",
         }

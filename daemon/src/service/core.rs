@@ -205,6 +205,15 @@ impl ServiceCore {
 
     /// The error for a workflow step that finds the arm held in `state`.
     pub(crate) fn held_error(state: &LoopState) -> Option<OperatorError> {
+        if *state == LoopState::Held {
+            return Some(
+                err(
+                    ErrorCode::Aborted,
+                    "the arm is held; why was not seen (the loop's output queue overflowed): check `status` and `resume`",
+                )
+                .with_cause(Cause::Held),
+            );
+        }
         let (reason, fri) = state.stop()?;
         Some(Self::stop_error(reason, fri))
     }

@@ -28,6 +28,9 @@ pub enum LoopState {
         /// The controller's view at the stop.
         fri: FriContext,
     },
+    /// The arm is held, but the stop's event was lost (the loop's output queue overflowed): the
+    /// reason is unknown; `resume` releases it.
+    Held,
     /// The collision monitor faulted (NaN input, bad time step): its residual is not valid and
     /// the arm is held.
     Fault {
@@ -47,6 +50,7 @@ impl LoopState {
             Self::EnteringCommand => ServiceState::EnteringCommand,
             Self::Commanding => ServiceState::Commanding,
             Self::Moving => ServiceState::Moving,
+            Self::Held => ServiceState::Held,
             Self::Stopped { reason, fri } => ServiceState::Stopped {
                 cause: reason.to_cause(),
                 fri,
@@ -67,12 +71,9 @@ impl LoopState {
                     Self::Fault { reason, fri }
                 }
                 Some((reason, fri)) => Self::Stopped { reason, fri },
-                // Held before any stop was streamed (cannot happen: the stop event precedes the
-                // first held snapshot); reported as the operator's hold, the safe reading.
-                None => Self::Stopped {
-                    reason: StopReason::Operator,
-                    fri: FriContext::unknown(),
-                },
+                // Held, but the stop's event was lost (the loop's queue was full): the reason
+                // is unknown and is never guessed (an operator stop must not be claimed).
+                None => Self::Held,
             };
         }
         if f & flags::MOVING != 0 && f & flags::COMMAND_MODE != 0 {
@@ -88,7 +89,7 @@ impl LoopState {
 
     /// Whether the arm is held (stopped or faulted).
     pub fn is_held(&self) -> bool {
-        matches!(self, Self::Stopped { .. } | Self::Fault { .. })
+        matches!(self, Self::Held | Self::Stopped { .. } | Self::Fault { .. })
     }
 
     /// The stop that holds the arm, if any.
@@ -133,5 +134,46 @@ impl Snapshot {
     /// Whether a commanded move is pending or running.
     pub fn moving(&self) -> bool {
         self.robot.flags & flags::MOVING != 0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn snapshot(flags: u32) -> RobotState {
+        RobotState {
+            flags,
+            ..RobotState::default()
+        }
+    }
+
+    #[test]
+    fn a_hold_whose_stop_was_not_seen_is_never_called_an_operator_stop() {
+        let held = snapshot(flags::STOPPED | flags::COMMAND_MODE);
+        assert_eq!(LoopState::of(&held, None), LoopState::Held);
+        assert!(LoopState::Held.is_held());
+        let collision = StopReason::Collision {
+            link: 4,
+            time_s: 1.0,
+            residual: [0.0; 7],
+        };
+        let fri = FriContext::unknown();
+        assert_eq!(
+            LoopState::of(&held, Some((collision, fri))),
+            LoopState::Stopped {
+                reason: collision,
+                fri
+            }
+        );
+    }
+
+    #[test]
+    fn command_mode_requested_but_not_entered_is_entering_command() {
+        let s = snapshot(flags::COMMAND_REQUESTED | flags::MOVING);
+        assert_eq!(LoopState::of(&s, None), LoopState::EnteringCommand);
+        let s = snapshot(flags::COMMAND_REQUESTED | flags::COMMAND_MODE | flags::MOVING);
+        assert_eq!(LoopState::of(&s, None), LoopState::Moving);
+        assert_eq!(LoopState::of(&snapshot(0), None), LoopState::Monitor);
     }
 }

@@ -463,6 +463,47 @@ fn estimate_motion_on_generated_sweeps() {
         &paths[2],
     ]);
     assert!(e.contains("one tare log per loaded log"), "{e}");
+    // The service's log names its time column `time_s` and skips lost cycles: the log is read
+    // as it is and cut at its gap.
+    let text = std::fs::read_to_string(&paths[0]).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
+    lines[0] = lines[0].replacen("t,", "time_s,", 1);
+    let middle = lines.len() / 2;
+    lines.drain(middle..middle + 3);
+    let recorded = dir.join("recorded.csv");
+    std::fs::write(&recorded, lines.join("\n") + "\n").unwrap();
+    let recorded = recorded.to_string_lossy().into_owned();
+    let out = fri_ctl(&[
+        "estimate-motion",
+        "--log",
+        &recorded,
+        "--log",
+        &paths[1],
+        "--log",
+        &paths[2],
+    ]);
+    let s = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        out.status.success(),
+        "{s} {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        s.contains("1 gaps (lost cycles)") && s.contains("2 contiguous pieces"),
+        "{s}"
+    );
+    let v = ok_json(&[
+        "estimate-motion",
+        "--log",
+        &recorded,
+        "--log",
+        &paths[1],
+        "--log",
+        &paths[2],
+        "--json",
+    ]);
+    let m = v["mass"].as_f64().unwrap();
+    assert!((m / 3.028 - 1.0).abs() < 0.005, "{m}");
     let e = err_text(&["estimate-motion", "--log", &fixture("lwr4_loaded_q10.csv")]);
     assert!(e.contains("no column `t`"), "{e}");
     // An implausible joint value in a log is named with its row.

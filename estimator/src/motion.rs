@@ -33,7 +33,8 @@ pub struct Trajectory<const N: usize> {
     pub tau: Vec<SVector<f64, N>>,
 }
 
-/// Reads a trajectory log, CSV with header `t,q1..qn,tau1..taun` (s, rad, Nm); other columns ignored.
+/// Reads a trajectory log, CSV with header `t,q1..qn,tau1..taun` (s, rad, Nm); other columns
+/// ignored. The time column may also be `time_s`, as the service's `record --kind log` writes it.
 pub fn read_log_csv<const N: usize, R: Read>(reader: R) -> Result<Trajectory<N>, EstimatorError> {
     let (mut rdr, header) = crate::samples::open_csv(reader)?;
     let col = |name: String| -> Result<usize, EstimatorError> {
@@ -45,7 +46,7 @@ pub fn read_log_csv<const N: usize, R: Read>(reader: R) -> Result<Trajectory<N>,
                 detail: format!("the log has no column `{name}` (needs t, q1..q{N}, tau1..tau{N})"),
             })
     };
-    let ct = col("t".into())?;
+    let ct = col("time_s".into()).or_else(|_| col("t".into()))?;
     let cq: Vec<usize> = (1..=N)
         .map(|j| col(format!("q{j}")))
         .collect::<Result<_, _>>()?;
@@ -169,6 +170,63 @@ pub struct ProcessedSample<const N: usize> {
     pub qdd: SVector<f64, N>,
     /// Filtered joint torque, Nm.
     pub tau: SVector<f64, N>,
+}
+
+/// Rows a contiguous piece of a log needs to be used (the filter's edges are trimmed).
+pub const MIN_SEGMENT_ROWS: usize = 50;
+
+/// A log cut at its gaps: the contiguous pieces, the gaps found, and the rows left out in pieces
+/// shorter than [`MIN_SEGMENT_ROWS`].
+#[derive(Debug, Clone)]
+pub struct Segments<const N: usize> {
+    /// The contiguous pieces, in order.
+    pub pieces: Vec<Trajectory<N>>,
+    /// Time steps longer than 1.5 × the median step (lost or skipped cycles).
+    pub gaps: usize,
+    /// Rows in pieces too short to use.
+    pub dropped_rows: usize,
+}
+
+/// Cuts `tr` wherever a time step exceeds 1.5 × the median step, so that each piece has the
+/// constant rate the filter and the derivatives need (a recorded log skips the cycles the
+/// controller did not send). Time that does not increase is an error, not a gap.
+pub fn split_at_gaps<const N: usize>(tr: &Trajectory<N>) -> Result<Segments<N>, EstimatorError> {
+    let n = tr.t.len();
+    let mut steps: Vec<f64> = tr.t.windows(2).map(|w| w[1] - w[0]).collect();
+    if let Some(k) = steps.iter().position(|s| s.is_nan() || *s <= 0.0) {
+        return Err(EstimatorError::InvalidSetting(format!(
+            "row {}: time stamps must increase",
+            k + 2
+        )));
+    }
+    steps.sort_by(f64::total_cmp);
+    let median = steps.get(steps.len() / 2).copied().unwrap_or(0.0);
+    let mut out = Segments {
+        pieces: Vec::new(),
+        gaps: 0,
+        dropped_rows: 0,
+    };
+    let mut start = 0;
+    for k in 1..=n {
+        let cut = k == n || tr.t[k] - tr.t[k - 1] > 1.5 * median;
+        if !cut {
+            continue;
+        }
+        if k < n {
+            out.gaps += 1;
+        }
+        if k - start >= MIN_SEGMENT_ROWS {
+            out.pieces.push(Trajectory {
+                t: tr.t[start..k].to_vec(),
+                q: tr.q[start..k].to_vec(),
+                tau: tr.tau[start..k].to_vec(),
+            });
+        } else {
+            out.dropped_rows += k - start;
+        }
+        start = k;
+    }
+    Ok(out)
 }
 
 fn check_trajectory<const N: usize>(tr: &Trajectory<N>) -> Result<f64, EstimatorError> {
@@ -467,6 +525,33 @@ pub fn chirp(t: f64, duration: f64, max_velocity: f64, max_acceleration: f64) ->
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn log_at(times: &[f64]) -> Trajectory<2> {
+        Trajectory {
+            t: times.to_vec(),
+            q: vec![SVector::zeros(); times.len()],
+            tau: vec![SVector::zeros(); times.len()],
+        }
+    }
+
+    #[test]
+    fn a_log_is_cut_at_its_gaps_and_short_pieces_are_counted() {
+        // 100 rows at 1 ms, a 4 ms gap, 60 rows, a 2 ms gap, 10 rows.
+        let mut t: Vec<f64> = (0..100).map(|k| k as f64 * 1e-3).collect();
+        t.extend((0..60).map(|k| 0.103 + k as f64 * 1e-3));
+        t.extend((0..10).map(|k| 0.164 + k as f64 * 1e-3));
+        let s = split_at_gaps(&log_at(&t)).unwrap();
+        assert_eq!(s.gaps, 2);
+        let lens: Vec<usize> = s.pieces.iter().map(|p| p.t.len()).collect();
+        assert_eq!(lens, [100, 60]);
+        assert_eq!(s.dropped_rows, 10);
+        let contiguous: Vec<f64> = (0..80).map(|k| k as f64 * 1e-3).collect();
+        let s = split_at_gaps(&log_at(&contiguous)).unwrap();
+        assert_eq!((s.gaps, s.pieces.len(), s.dropped_rows), (0, 1, 0));
+        let mut backwards = contiguous;
+        backwards[40] = 0.0;
+        assert!(split_at_gaps(&log_at(&backwards)).is_err());
+    }
 
     #[test]
     fn chirp_derivatives_are_consistent() {

@@ -133,8 +133,9 @@ pub struct CalibrateArgs {
 /// `fri-ctl offline estimate-motion`.
 #[derive(Debug, Clone, Args)]
 pub struct MotionArgs {
-    /// Loaded trajectory log, CSV with header t,q1..qn,tau1..taun (s, rad, Nm); extra columns
-    /// ignored. Repeat for several trajectories (e.g. the paper's q_A, q_B, q_C).
+    /// Loaded trajectory log, CSV with header t (or time_s, as `record --kind log` writes),
+    /// q1..qn, tau1..taun (s, rad, Nm); extra columns ignored; lost cycles cut it into pieces.
+    /// Repeat for several trajectories (e.g. the paper's q_A, q_B, q_C).
     #[arg(long, required = true)]
     pub log: Vec<PathBuf>,
     /// Unloaded run of the same trajectory (tare), one per --log in the same order; without it the

@@ -6,8 +6,8 @@ use std::io::{BufReader, Write};
 use anyhow::{Context, bail};
 use dynamics::Model;
 use estimator::motion::{
-    InertialEstimate, MotionOptions, Trajectory, Unloaded, estimate_motion as run_motion,
-    read_log_csv,
+    InertialEstimate, MIN_SEGMENT_ROWS, MotionOptions, Trajectory, Unloaded,
+    estimate_motion as run_motion, read_log_csv, split_at_gaps,
 };
 use estimator::plausible::Ranges;
 
@@ -89,11 +89,30 @@ fn motion_n<const N: usize>(
             a.tare_log.len()
         );
     }
-    let loaded: Vec<Trajectory<N>> = a
-        .log
-        .iter()
-        .map(|p| read_log::<N>(p, &model))
-        .collect::<anyhow::Result<_>>()?;
+    let mut loaded: Vec<Trajectory<N>> = Vec::new();
+    let mut notes = Vec::new();
+    for p in &a.log {
+        let log = read_log::<N>(p, &model)?;
+        let s = split_at_gaps(&log).with_context(|| format!("reading {}", p.display()))?;
+        if s.gaps > 0 {
+            // A tare log pairs row by row with its loaded log: gaps would break the pairing.
+            if !a.tare_log.is_empty() {
+                bail!(
+                    "{}: {} gaps in the time column (lost cycles); with --tare-log every log must be contiguous",
+                    p.display(),
+                    s.gaps
+                );
+            }
+            notes.push(format!(
+                "  {}: {} gaps (lost cycles): estimated from {} contiguous pieces, {} rows in pieces under {MIN_SEGMENT_ROWS} rows left out",
+                p.display(),
+                s.gaps,
+                s.pieces.len(),
+                s.dropped_rows
+            ));
+        }
+        loaded.extend(s.pieces);
+    }
     let tare: Vec<Trajectory<N>> = a
         .tare_log
         .iter()
@@ -120,6 +139,9 @@ fn motion_n<const N: usize>(
         writeln!(out, "{}", serde_json::to_string_pretty(&e)?)?;
     } else {
         write!(out, "{}", report(&e, N))?;
+        for n in &notes {
+            writeln!(out, "{n}")?;
+        }
     }
     Ok(())
 }

@@ -147,6 +147,75 @@ async fn fri_ctl_record_prints_the_full_path_in_the_configured_directory() {
     h.stop().await.unwrap();
 }
 
+/// The stored tare leaves the service as the static-sample CSV the offline tools read.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_stored_tare_is_recorded_as_a_samples_file_the_offline_tools_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut c = local_config(dir.path(), "ctltare");
+    c.iceoryx2.enabled = false;
+    c.observer.armed = false;
+    c.state.record_dir = Some(dir.path().join("rec"));
+    let h = InProcess::start(c).await.unwrap();
+    let driver = controller(&h);
+    let mut client = h.client().await.unwrap();
+    wait_connected(&mut client).await;
+    let socket = h.socket.clone();
+    let record = |name: &'static str| {
+        let socket = socket.clone();
+        tokio::task::spawn_blocking(move || {
+            std::process::Command::new(env!("CARGO_BIN_EXE_fri-ctl"))
+                .args(["record", name, "--kind", "tare", "--socket"])
+                .arg(&socket)
+                .output()
+                .unwrap()
+        })
+    };
+    let none = record("none.csv").await.unwrap();
+    assert_eq!(none.status.code(), Some(3), "{none:?}");
+    assert!(
+        String::from_utf8_lossy(&none.stderr).contains("no tare is stored"),
+        "{none:?}"
+    );
+    // The residual must be valid before a workflow (the monitor warms up after connecting).
+    while call(&mut client, Command::Status).await.unwrap()["residual_valid"] != true {
+        tokio::task::yield_now().await;
+    }
+    call(
+        &mut client,
+        Command::Tare {
+            around: None,
+            poses: Some(2),
+            step_deg: Some(7.0),
+            pattern: None,
+        },
+    )
+    .await
+    .unwrap();
+    let out = record("tare.csv").await.unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let file = dir.path().join("rec").join("tare.csv");
+    let samples: Vec<estimator::samples::StaticSample<7>> =
+        estimator::samples::read_csv(std::fs::File::open(&file).unwrap()).unwrap();
+    assert_eq!(samples.len(), 2);
+    let offline = std::process::Command::new(env!("CARGO_BIN_EXE_fri-ctl"))
+        .args(["offline", "estimate", "--samples"])
+        .arg(&file)
+        .arg("--tare")
+        .arg(&file)
+        .arg("--json")
+        .output()
+        .unwrap();
+    // Loaded = tare: the offline estimator reads and pairs both files, fits Δτ = 0 and refuses
+    // it as "no payload" (a verdict on the data, not a reading error).
+    let err = String::from_utf8_lossy(&offline.stderr);
+    assert!(
+        !offline.status.success() && err.contains("mass 0.0000 kg is not positive"),
+        "{offline:?}"
+    );
+    drop(driver.join());
+    h.stop().await.unwrap();
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_daemons_results_decode_into_the_typed_results() {
     use fri_api::protocol::{CollisionAction, RecordKind};

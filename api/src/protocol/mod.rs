@@ -146,6 +146,9 @@ pub enum RecordKind {
     Samples,
     /// Every cycle: time, q, q̇, τ_J, gravity, external torque estimate, residual.
     Log,
+    /// The stored tare's static samples (unloaded), in the static-sample CSV format, for
+    /// `fri-ctl offline estimate --tare` and `offline calibrate`.
+    Tare,
 }
 
 /// Error codes of the protocol (stable strings; scripts match on them).

@@ -19,7 +19,8 @@ its full path. The arm does not move.
 cycle, time (s), flags, then q (rad), q̇ (rad/s), τ_J, gravity, τ_ext and residual (Nm) per \
 joint. `--kind samples` takes `--count` averaged static samples at the current pose \
 (1…1000, default 1) in the static-sample format q1..q7 (rad), tau1..tau7, g1..g7 (Nm) that \
-`fri-ctl offline estimate` reads.
+`fri-ctl offline estimate` reads. `--kind tare` writes the stored tare's samples in the same \
+format, for `fri-ctl offline estimate --tare` and `offline calibrate`.
 
 The name is a file name, not a path: 1 to 255 characters of A-Z a-z 0-9 . _ -, not starting \
 with `.` or `-`; an existing file is never overwritten.";
@@ -31,6 +32,8 @@ pub enum RecordArg {
     Samples,
     /// Every cycle.
     Log,
+    /// The stored tare's samples (static-sample CSV; the arm does not move).
+    Tare,
 }
 
 /// `fri-ctl record`.
@@ -61,6 +64,7 @@ impl Operation for RecordArgs {
             kind: match self.kind {
                 RecordArg::Samples => RecordKind::Samples,
                 RecordArg::Log => RecordKind::Log,
+                RecordArg::Tare => RecordKind::Tare,
             },
             duration_s: self.duration,
             count: self.count,
@@ -79,6 +83,7 @@ impl Operation for RecordArgs {
         let what = match self.kind {
             RecordArg::Samples => "static-sample",
             RecordArg::Log => "per-cycle",
+            RecordArg::Tare => "tare static-sample",
         };
         writeln!(out, "recorded {} rows to {} ({what} CSV)", r.rows, r.path)?;
         match r.lost {

@@ -37,6 +37,25 @@ impl ServiceCore {
         let shown = full.to_string_lossy().into_owned();
         let io = |e: std::io::Error| err(ErrorCode::Failed, format!("cannot write {shown}: {e}"));
         match kind {
+            RecordKind::Tare => {
+                let tare = self.persistent(|s| s.tare.clone()).ok_or_else(|| {
+                    err(
+                        ErrorCode::Failed,
+                        "no tare is stored: run `tare` first (it is kept in state.dir/tare.json)",
+                    )
+                })?;
+                let mut text = Vec::new();
+                estimator::samples::write_csv(&mut text, &tare.samples)
+                    .map_err(|e| err(ErrorCode::Failed, e.to_string()))?;
+                let (mut file, _) = dir.create(path).map_err(refuse)?;
+                use std::io::Write;
+                file.write_all(&text).map_err(io)?;
+                Ok(RecordResult {
+                    rows: tare.samples.len(),
+                    path: shown,
+                    lost: None,
+                })
+            }
             RecordKind::Samples => {
                 let n = count.unwrap_or(1);
                 if !(1..=1000).contains(&n) {

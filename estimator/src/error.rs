@@ -70,6 +70,16 @@ pub enum EstimatorError {
         /// Which joint moved, and by how much.
         detail: String,
     },
+    /// A sample lacks the evidence (time, window noise) the error model needs.
+    #[error(
+        "{which} sample {sample} has no evidence (time_s, tau_sem, ...): the error model needs it; record samples with the service, or estimate without the error model"
+    )]
+    NoEvidence {
+        /// `loaded` or `tare`.
+        which: &'static str,
+        /// 1-based sample number.
+        sample: usize,
+    },
     /// The stacked regressor is rank deficient or badly conditioned.
     #[error(
         "poses too similar: condition number {condition:.3e} of the stacked regressor exceeds {limit:.1e}; spread the poses further apart (e.g. `fri-ctl offline poses --optimize`) or add more"

@@ -278,14 +278,18 @@ pub(crate) fn estimate_coefficients_with<const N: usize>(
 }
 
 /// Columns with a non-negligible norm (1e-9 of the largest): the identifiable parameters.
-fn identifiable_columns(m: &DMatrix<f64>) -> Vec<usize> {
+pub(crate) fn identifiable_columns(m: &DMatrix<f64>) -> Vec<usize> {
     let norms: Vec<f64> = (0..m.ncols()).map(|c| m.column(c).norm()).collect();
     let max = norms.iter().copied().fold(0.0, f64::max);
     (0..m.ncols()).filter(|&c| norms[c] > 1e-9 * max).collect()
 }
 
 /// Expands a reduced solution to the four payload parameters (0 where not identifiable).
-fn expand(cols: &[usize], x: &DVector<f64>, cov: &DMatrix<f64>) -> (Vector4<f64>, Matrix4<f64>) {
+pub(crate) fn expand(
+    cols: &[usize],
+    x: &DVector<f64>,
+    cov: &DMatrix<f64>,
+) -> (Vector4<f64>, Matrix4<f64>) {
     let mut xf = Vector4::zeros();
     let mut cf = Matrix4::zeros();
     for (i, &ci) in cols.iter().enumerate() {
@@ -295,6 +299,23 @@ fn expand(cols: &[usize], x: &DVector<f64>, cov: &DMatrix<f64>) -> (Vector4<f64>
         }
     }
     (xf, cf)
+}
+
+/// Covariance of the CoM c = h/m from that of (m, h), by the delta method (m²).
+fn com_covariance(x: &Vector4<f64>, cov: &Matrix4<f64>) -> Matrix3<f64> {
+    let mass = x[0];
+    let h = Vector3::new(x[1], x[2], x[3]);
+    // c = h/m: ∂c/∂m = −h/m², ∂c/∂h = I/m
+    let mut jc = Matrix3x4::zeros();
+    jc.set_column(0, &(-h / (mass * mass)));
+    jc.fixed_view_mut::<3, 3>(0, 1)
+        .copy_from(&(Matrix3::identity() / mass));
+    jc * cov * jc.transpose()
+}
+
+/// 1σ of the CoM per axis for the (m, h) covariance `cov` at the estimate `x`, m.
+pub(crate) fn com_std_of(x: &Vector4<f64>, cov: &Matrix4<f64>) -> [f64; 3] {
+    std3(&com_covariance(x, cov))
 }
 
 fn arr3(v: &Vector3<f64>) -> [f64; 3] {
@@ -310,7 +331,7 @@ fn std3(cov: &Matrix3<f64>) -> [f64; 3] {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn finish<const N: usize>(
+pub(crate) fn finish<const N: usize>(
     model: &Model<N>,
     method: Method,
     correction: Correction,
@@ -339,12 +360,7 @@ fn finish<const N: usize>(
     }
     let h = Vector3::new(x[1], x[2], x[3]);
     let com = h / mass;
-    // c = h/m: ∂c/∂m = −h/m², ∂c/∂h = I/m
-    let mut jc = Matrix3x4::zeros();
-    jc.set_column(0, &(-h / (mass * mass)));
-    jc.fixed_view_mut::<3, 3>(0, 1)
-        .copy_from(&(Matrix3::identity() / mass));
-    let cov_c = jc * cov * jc.transpose();
+    let cov_c = com_covariance(&x, &cov);
     let flange = model.flange();
     let com_flange = flange.inverse_transform_point(&com.into()).coords;
     let rot = flange.rotation.to_rotation_matrix();

@@ -9,6 +9,8 @@
 //! Modules:
 //! - [`estimate`]: the static one-shot estimator (eq. 26), direct or via the paper's coefficients;
 //! - [`correction`]: tare and controller model-error calibration;
+//! - [`error_model`]: the estimate under an explicit error model (averaging noise, tare, drift,
+//!   offset) with its uncertainty by source;
 //! - [`coefficients`] and [`expr`]: the coefficient-set workflow (eqs. 21–28) and its file format;
 //! - [`motion`]: full inertial estimation from trajectories (eq. 45);
 //! - [`poses`]: pose design with predicted uncertainty;
@@ -24,6 +26,7 @@ pub mod coefficients;
 pub mod correction;
 mod equations;
 pub mod error;
+pub mod error_model;
 pub mod estimate;
 pub mod expr;
 pub mod filter;
@@ -39,4 +42,4 @@ pub use correction::{Calibration, estimate_with_calibration, estimate_with_tare}
 pub use error::EstimatorError;
 pub use estimate::{Correction, EstimateOptions, Method, PayloadEstimate, estimate};
 pub use motion::{InertialEstimate, MotionOptions, Trajectory, Unloaded, estimate_motion};
-pub use samples::{StaticCheck, StaticSample};
+pub use samples::{SampleEvidence, StaticCheck, StaticSample};

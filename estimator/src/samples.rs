@@ -3,8 +3,9 @@
 //! CSV: a header row naming the columns `q1..qn` (rad), `tau1..taun` (Nm, measured joint
 //! torques) and `g1..gn` (Nm, the controller's gravity vector without payload), one static pose
 //! per row. Optional `qd1..qdn` (rad/s, joint velocities at sampling time) and `drift1..driftn`
-//! (rad, position change over the averaging window) enable the static check. Any other column
-//! is ignored.
+//! (rad, position change over the averaging window) enable the static check. The optional
+//! evidence group (`time_s`, `window_s`, `settle_s`, `max_qd`, `tau_std1..n`, `tau_sem1..n`:
+//! [`SampleEvidence`]) feeds the uncertainty model. Any other column is ignored.
 
 use std::io::Read;
 
@@ -30,6 +31,30 @@ pub struct StaticSample<const N: usize> {
     /// Position drift over the averaging window, rad, when recorded.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub drift: Option<SVector<f64, N>>,
+    /// How the sample was taken (time, window, settling, noise of the mean), when recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub evidence: Option<SampleEvidence<N>>,
+}
+
+/// The settling and averaging evidence of one static sample: what the uncertainty model needs
+/// beyond the means (CSV columns `time_s`, `window_s`, `settle_s`, `max_qd`, `tau_std1..n`,
+/// `tau_sem1..n`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SampleEvidence<const N: usize> {
+    /// Controller time at the middle of the averaging window, s.
+    pub time_s: f64,
+    /// Length of the averaging window, s.
+    pub window_s: f64,
+    /// Time waited for settling before the window, s.
+    pub settle_s: f64,
+    /// Largest |q̇| of any joint over the window, rad/s.
+    pub max_qd: f64,
+    /// Standard deviation of τ_J over the window per joint, Nm.
+    pub tau_std: SVector<f64, N>,
+    /// Standard error of the window mean of τ_J per joint, Nm, from batch means (so that
+    /// correlated noise is not counted as independent cycles).
+    pub tau_sem: SVector<f64, N>,
 }
 
 impl<const N: usize> StaticSample<N> {
@@ -41,6 +66,7 @@ impl<const N: usize> StaticSample<N> {
             gravity,
             qd: None,
             drift: None,
+            evidence: None,
         }
     }
 
@@ -182,6 +208,40 @@ pub(crate) fn open_csv<R: Read>(
     Ok((rdr, header))
 }
 
+/// Column indices of the evidence group.
+struct EvidenceColumns<const N: usize> {
+    scalars: [usize; 4],
+    tau_std: [usize; N],
+    tau_sem: [usize; N],
+}
+
+/// The evidence group's columns: all of them, or none (a partial group is an error naming the
+/// first missing column).
+fn evidence_columns<const N: usize>(
+    header: &[String],
+) -> Result<Option<EvidenceColumns<N>>, EstimatorError> {
+    let find = |name: &str| header.iter().position(|h| h.trim() == name);
+    let scalars = EVIDENCE_SCALARS.map(find);
+    let tau_std = find_group::<N>(header, "tau_std", false)?;
+    let tau_sem = find_group::<N>(header, "tau_sem", false)?;
+    if scalars.iter().all(Option::is_none) && tau_std.is_none() && tau_sem.is_none() {
+        return Ok(None);
+    }
+    let missing = |what: &str| EstimatorError::WrongColumns {
+        joints: N,
+        detail: format!("the evidence columns are incomplete: no `{what}`"),
+    };
+    let mut found = [0; 4];
+    for (i, c) in scalars.iter().enumerate() {
+        found[i] = c.ok_or_else(|| missing(EVIDENCE_SCALARS[i]))?;
+    }
+    Ok(Some(EvidenceColumns {
+        scalars: found,
+        tau_std: tau_std.ok_or_else(|| missing("tau_std1"))?,
+        tau_sem: tau_sem.ok_or_else(|| missing("tau_sem1"))?,
+    }))
+}
+
 /// Reads static samples of an `N`-joint robot from CSV (format in the module docs).
 pub fn read_csv<const N: usize, R: Read>(
     reader: R,
@@ -192,6 +252,7 @@ pub fn read_csv<const N: usize, R: Read>(
     let cg = find_group::<N>(&header, "g", true)?;
     let cqd = find_group::<N>(&header, "qd", false)?;
     let cdr = find_group::<N>(&header, "drift", false)?;
+    let evidence = evidence_columns::<N>(&header)?;
     let (Some(cq), Some(ct), Some(cg)) = (cq, ct, cg) else {
         return Err(EstimatorError::WrongColumns {
             joints: N,
@@ -201,26 +262,36 @@ pub fn read_csv<const N: usize, R: Read>(
     let mut out = Vec::new();
     for (k, rec) in rdr.records().enumerate() {
         let rec = rec.map_err(|e| EstimatorError::Csv(format!("row {}: {e}", k + 1)))?;
+        let cell = |c: usize| -> Result<f64, EstimatorError> {
+            let text = rec.get(c).ok_or_else(|| EstimatorError::WrongColumns {
+                joints: N,
+                detail: format!("row {} has only {} fields", k + 1, rec.len()),
+            })?;
+            match text.parse::<f64>() {
+                Ok(x) if x.is_finite() => Ok(x),
+                _ => Err(EstimatorError::NotFinite {
+                    sample: k + 1,
+                    column: header[c].clone(),
+                }),
+            }
+        };
         let get = |cols: &[usize; N]| -> Result<SVector<f64, N>, EstimatorError> {
             let mut v = SVector::<f64, N>::zeros();
             for (j, &c) in cols.iter().enumerate() {
-                let cell = rec.get(c).ok_or_else(|| EstimatorError::WrongColumns {
-                    joints: N,
-                    detail: format!("row {} has only {} fields", k + 1, rec.len()),
-                })?;
-                let x: f64 = cell.parse().map_err(|_| EstimatorError::NotFinite {
-                    sample: k + 1,
-                    column: header[c].clone(),
-                })?;
-                if !x.is_finite() {
-                    return Err(EstimatorError::NotFinite {
-                        sample: k + 1,
-                        column: header[c].clone(),
-                    });
-                }
-                v[j] = x;
+                v[j] = cell(c)?;
             }
             Ok(v)
+        };
+        let evidence = match &evidence {
+            Some(e) => Some(SampleEvidence {
+                time_s: cell(e.scalars[0])?,
+                window_s: cell(e.scalars[1])?,
+                settle_s: cell(e.scalars[2])?,
+                max_qd: cell(e.scalars[3])?,
+                tau_std: get(&e.tau_std)?,
+                tau_sem: get(&e.tau_sem)?,
+            }),
+            None => None,
         };
         out.push(StaticSample {
             q: get(&cq)?,
@@ -228,47 +299,80 @@ pub fn read_csv<const N: usize, R: Read>(
             gravity: get(&cg)?,
             qd: cqd.as_ref().map(&get).transpose()?,
             drift: cdr.as_ref().map(&get).transpose()?,
+            evidence,
         });
     }
     Ok(out)
 }
 
-/// Header of the static-sample CSV: `q1..qn,tau1..taun,g1..gn`, plus `qd1..qdn` when `with_qd`.
-pub fn csv_header<const N: usize>(with_qd: bool) -> Vec<String> {
-    let groups: &[&str] = if with_qd {
-        &["q", "tau", "g", "qd"]
-    } else {
-        &["q", "tau", "g"]
-    };
-    groups
-        .iter()
-        .flat_map(|p| (1..=N).map(move |j| format!("{p}{j}")))
-        .collect()
+/// Which optional column groups a static-sample CSV carries.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CsvColumns {
+    /// `qd1..qdn` (rad/s).
+    pub qd: bool,
+    /// `time_s, window_s, settle_s, max_qd, tau_std1..n, tau_sem1..n` ([`SampleEvidence`]).
+    pub evidence: bool,
 }
 
-/// One static-sample CSV row in the column order of [`csv_header`] (rad, Nm, Nm, rad/s), each
-/// value written in the shortest form that reads back exactly.
-pub fn csv_row<const N: usize>(sample: &StaticSample<N>, with_qd: bool) -> Vec<String> {
-    let qd = sample.qd.filter(|_| with_qd);
-    [&sample.q, &sample.tau, &sample.gravity]
+impl CsvColumns {
+    /// The groups every one of `samples` has (none for an empty slice).
+    pub fn common_to<const N: usize>(samples: &[StaticSample<N>]) -> Self {
+        let all = |f: fn(&StaticSample<N>) -> bool| !samples.is_empty() && samples.iter().all(f);
+        CsvColumns {
+            qd: all(|s| s.qd.is_some()),
+            evidence: all(|s| s.evidence.is_some()),
+        }
+    }
+}
+
+/// Names of the evidence's scalar columns, in file order.
+const EVIDENCE_SCALARS: [&str; 4] = ["time_s", "window_s", "settle_s", "max_qd"];
+
+/// Header of the static-sample CSV: `q1..qn,tau1..taun,g1..gn`, then the optional groups.
+pub fn csv_header<const N: usize>(columns: CsvColumns) -> Vec<String> {
+    let vector = |p: &'static str| (1..=N).map(move |j| format!("{p}{j}"));
+    let mut h: Vec<String> = ["q", "tau", "g"].into_iter().flat_map(vector).collect();
+    if columns.qd {
+        h.extend(vector("qd"));
+    }
+    if columns.evidence {
+        h.extend(EVIDENCE_SCALARS.map(str::to_owned));
+        h.extend(vector("tau_std").chain(vector("tau_sem")));
+    }
+    h
+}
+
+/// One static-sample CSV row in the column order of [`csv_header`] (rad, Nm, Nm, rad/s, s,
+/// s, s, rad/s, Nm, Nm), each value written in the shortest form that reads back exactly; a
+/// group the sample lacks is left out.
+pub fn csv_row<const N: usize>(sample: &StaticSample<N>, columns: CsvColumns) -> Vec<String> {
+    let cells = |v: &SVector<f64, N>| v.iter().map(|x| format!("{x}")).collect::<Vec<_>>();
+    let mut row: Vec<String> = [&sample.q, &sample.tau, &sample.gravity]
         .into_iter()
-        .chain(qd.as_ref())
-        .flat_map(|v| v.iter().map(|x| format!("{x}")))
-        .collect()
+        .flat_map(cells)
+        .collect();
+    if let Some(qd) = sample.qd.as_ref().filter(|_| columns.qd) {
+        row.extend(cells(qd));
+    }
+    if let Some(e) = sample.evidence.as_ref().filter(|_| columns.evidence) {
+        row.extend([e.time_s, e.window_s, e.settle_s, e.max_qd].map(|x| format!("{x}")));
+        row.extend(cells(&e.tau_std).into_iter().chain(cells(&e.tau_sem)));
+    }
+    row
 }
 
-/// Writes static samples as CSV ([`csv_header`], then one [`csv_row`] per sample); the `qd*`
-/// columns are written when every sample has velocities.
+/// Writes static samples as CSV ([`csv_header`], then one [`csv_row`] per sample); an optional
+/// group is written when every sample has it.
 pub fn write_csv<const N: usize, W: std::io::Write>(
     writer: W,
     samples: &[StaticSample<N>],
 ) -> Result<(), EstimatorError> {
     let err = |e: csv::Error| EstimatorError::Csv(e.to_string());
     let mut w = csv::Writer::from_writer(writer);
-    let with_qd = samples.iter().all(|s| s.qd.is_some()) && !samples.is_empty();
-    w.write_record(csv_header::<N>(with_qd)).map_err(err)?;
+    let columns = CsvColumns::common_to(samples);
+    w.write_record(csv_header::<N>(columns)).map_err(err)?;
     for s in samples {
-        w.write_record(csv_row(s, with_qd)).map_err(err)?;
+        w.write_record(csv_row(s, columns)).map_err(err)?;
     }
     w.flush().map_err(|e| EstimatorError::Csv(e.to_string()))?;
     Ok(())
@@ -316,6 +420,39 @@ mod tests {
         s.q = parsed.q;
         assert_eq!(serde_json::to_string(&s).unwrap(), json);
         assert!(serde_json::from_str::<StaticSample<2>>(r#"{"q":[0,0],"tau":[0,0]}"#).is_err());
+    }
+
+    #[test]
+    fn evidence_round_trips_and_a_partial_group_is_named() {
+        let mut s = StaticSample::<2>::new(
+            SVector::from([0.1, -0.2]),
+            SVector::from([1.0, 2.0]),
+            SVector::from([0.5, 1.5]),
+        );
+        s.evidence = Some(SampleEvidence {
+            time_s: 12.25,
+            window_s: 0.5,
+            settle_s: 0.1,
+            max_qd: 1e-4,
+            tau_std: SVector::from([0.05, 0.04]),
+            tau_sem: SVector::from([0.0016, 0.0013]),
+        });
+        let mut buf = Vec::new();
+        write_csv(&mut buf, &[s]).unwrap();
+        let text = String::from_utf8(buf).unwrap();
+        assert!(
+            text.contains("time_s,window_s,settle_s,max_qd,tau_std1"),
+            "{text}"
+        );
+        let back: Vec<StaticSample<2>> = read_csv(text.as_bytes()).unwrap();
+        assert_eq!(back, vec![s]);
+        let json = serde_json::to_string(&s).unwrap();
+        assert_eq!(serde_json::from_str::<StaticSample<2>>(&json).unwrap(), s);
+        let partial = "q1,q2,tau1,tau2,g1,g2,time_s\n0,0,0,0,0,0,1\n";
+        let e = read_csv::<2, _>(partial.as_bytes())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("window_s"), "{e}");
     }
 
     #[test]

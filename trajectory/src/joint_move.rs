@@ -1,13 +1,11 @@
 //! Jerk-limited straight-line joint moves with a stop (the moves the service commands itself).
 //!
 //! A move is a straight line in joint space, q(t) = q₀ + s(t)·Δ, with the path parameter s
-//! following the time-optimal jerk-limited rest-to-rest profile ([`crate::double_s`]) for the
-//! path limits of the most constrained joint (ṡ ≤ v_i/|Δ_i|, and likewise for s̈ and s⃛), so every
-//! joint stays within its velocity, acceleration and jerk limits and the binding one runs at
-//! them. Position, velocity and acceleration are continuous, velocity and acceleration are zero
-//! at both ends, and s(T) = 1 exactly, so the move lands exactly on the target. (Until
-//! 2026-12 the profile was the quintic s(τ) = 10τ³ − 15τ⁴ + 6τ⁵, which takes 1.2–1.9 × as
-//! long at the same limits.)
+//! following a quintic rest-to-rest profile s(τ) = 10τ³ − 15τ⁴ + 6τ⁵, τ = t/T. Its peaks are
+//! |ṡ| ≤ 15/(8T), |s̈| ≤ 10/(√3 T²), |s⃛| ≤ 60/T³, so the duration T is the smallest one that keeps
+//! every joint within its velocity, acceleration and jerk limits. Position, velocity and
+//! acceleration are continuous, velocity and acceleration are zero at both ends, and s(T) = 1
+//! exactly, so the move lands exactly on the target.
 //!
 //! A stop during a move replaces the remaining profile by a quartic brake on s from the current
 //! (s, ṡ, s̈) to rest, whose duration is the shortest (found by bisection) that keeps the same
@@ -17,8 +15,7 @@
 
 use nalgebra::SVector;
 
-use crate::double_s::DoubleS;
-use crate::quintic::JointSetpoint;
+use crate::quintic::{JointSetpoint, PEAK_ACCELERATION, PEAK_JERK, PEAK_VELOCITY, quintic};
 
 /// Per-joint motion limits (all strictly positive).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -45,8 +42,8 @@ pub enum MotionError {
 /// Scalar profile of the path parameter s(t).
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Profile {
-    /// Time-optimal double S from rest at s = 0 to rest at s = 1.
-    DoubleS(DoubleS),
+    /// Quintic rest-to-rest from s = 0 to s = 1 over `duration`.
+    Quintic { duration: f64 },
     /// Brake from (s0, v0, a0) at `t0`: first `kill_s` of constant jerk `kill_jerk` that takes
     /// a positive acceleration to zero, then a quartic to rest over `duration`.
     Brake {
@@ -109,7 +106,7 @@ impl<const N: usize> MotionLimits<N> {
 }
 
 impl<const N: usize> JointMove<N> {
-    /// Plans the fastest move from `start` to `target` (both at rest) within `limits`.
+    /// Plans the fastest quintic move from `start` to `target` (both at rest) within `limits`.
     pub fn new(
         start: SVector<f64, N>,
         target: SVector<f64, N>,
@@ -124,18 +121,21 @@ impl<const N: usize> JointMove<N> {
         limits.validate()?;
         let delta = target - start;
         let (vs, as_, js) = limits.along(&delta);
+        let duration = (PEAK_VELOCITY / vs)
+            .max((PEAK_ACCELERATION / as_).sqrt())
+            .max((PEAK_JERK / js).cbrt());
         Ok(Self {
             start,
             delta,
             limits,
-            profile: Profile::DoubleS(DoubleS::plan(vs, as_, js)),
+            profile: Profile::Quintic { duration },
         })
     }
 
     /// Time at which the set-point comes to rest (end of the move or of the brake), s.
     pub fn end_time(&self) -> f64 {
         match self.profile {
-            Profile::DoubleS(p) => p.duration(),
+            Profile::Quintic { duration } => duration,
             Profile::Brake {
                 t0,
                 kill_s,
@@ -163,7 +163,16 @@ impl<const N: usize> JointMove<N> {
     /// (s, ṡ, s̈) at time t.
     fn path(&self, t: f64) -> (f64, f64, f64) {
         match self.profile {
-            Profile::DoubleS(p) => p.at(t),
+            Profile::Quintic { duration } => {
+                if duration <= 0.0 || t >= duration {
+                    return (1.0, 0.0, 0.0);
+                }
+                if t <= 0.0 {
+                    return (0.0, 0.0, 0.0);
+                }
+                let (s, ds, dds) = quintic(t / duration);
+                (s, ds / duration, dds / (duration * duration))
+            }
             Profile::Brake {
                 t0,
                 s0,
@@ -311,7 +320,7 @@ fn brake_within(v0: f64, a0: f64, c3: f64, c4: f64, t: f64, vs: f64, as_: f64, j
         }
     }
     // Velocity extremes: ends and roots of the acceleration.
-    // The brake starts inside the limits (the planned profile respects them); it must never speed up
+    // The brake starts inside the limits (the quintic respects them); it must never speed up
     // beyond max(|v0|, limit).
     let mut vel_ok = true;
     let v_cap = vs.max(v0.abs());
@@ -410,20 +419,17 @@ mod tests {
 
     #[test]
     fn duration_is_set_by_the_binding_limit() {
-        // 7° on one joint: too short to cruise; the acceleration limit (1 rad/s², reached after
-        // tj = a/j = 0.2 s) binds: d = a·(ta − tj)·ta, T = 2·ta = 0.927 s (the quintic: 1.135 s).
+        // 7° on one joint: jerk-bound (cbrt(60·0.122/5) = 1.135 s) vs acc (0.84 s) vs vel (0.46 s).
         let d = 7f64.to_radians();
         let mut target = V7::zeros();
         target[3] = d;
         let m = JointMove::new(V7::zeros(), target, limits()).unwrap();
-        let tj = 1.0 / 5.0;
-        let ta = 0.5 * (tj + (tj * tj + 4.0 * d / 1.0).sqrt());
-        assert!((m.end_time() - 2.0 * ta).abs() < 1e-12, "{}", m.end_time());
-        // Large move: cruises at the velocity limit, T = d/v + tj + v/a.
+        assert!((m.end_time() - (60.0 * d / 5.0).cbrt()).abs() < 1e-12);
+        // Large move: velocity-bound.
         target[3] = 3.0;
         let m = JointMove::new(V7::zeros(), target, limits()).unwrap();
-        assert!((m.end_time() - (3.0 / 0.5 + 0.2 + 0.5)).abs() < 1e-12);
-        // The joint runs at its velocity limit exactly.
+        assert!((m.end_time() - 15.0 / 8.0 * 3.0 / 0.5).abs() < 1e-12);
+        // Some joint reaches its velocity limit exactly.
         let peak = m.sample(m.end_time() / 2.0).velocity[3];
         assert!((peak - 0.5).abs() < 1e-12);
     }

@@ -22,6 +22,16 @@ pub struct Data<const N: usize> {
     pub(crate) axes: [Motion; N],
     /// Composite inertia of the subtree rooted at link i, in link frame i.
     pub(crate) composite: [InertialParameters; N],
+    /// Joint motion subspace S_i in the base frame.
+    pub(crate) axes_in_base: [Motion; N],
+    /// Its rate Ṡ_i = v_i ×m S_i in the base frame.
+    pub(crate) axes_rate_in_base: [Motion; N],
+    /// Composite inertia of the subtree rooted at link i, in the base frame.
+    pub(crate) composite_in_base: [InertialParameters; N],
+    /// Composite rate of that inertia, Σ_{b ≥ i} İ_b (mass rate zero), in the base frame.
+    pub(crate) composite_rate_in_base: [InertialParameters; N],
+    /// Composite momentum Σ_{b ≥ i} I_b v_b in the base frame.
+    pub(crate) composite_momentum_in_base: [Force; N],
 }
 
 impl<const N: usize> Data<N> {
@@ -36,6 +46,11 @@ impl<const N: usize> Data<N> {
             force: [Force::ZERO; N],
             axes: [Motion::ZERO; N],
             composite: [InertialParameters::zero(); N],
+            axes_in_base: [Motion::ZERO; N],
+            axes_rate_in_base: [Motion::ZERO; N],
+            composite_in_base: [InertialParameters::zero(); N],
+            composite_rate_in_base: [InertialParameters::zero(); N],
+            composite_momentum_in_base: [Force::ZERO; N],
         }
     }
 }

@@ -172,6 +172,30 @@ impl InertialParameters {
         Ok(())
     }
 
+    /// Rate of change of these parameters, expressed in a fixed frame, while the body moves with
+    /// spatial velocity `v` (same frame): İ = v ×* I − I v×, as parameters with zero mass rate
+    /// (kg·m/s and kg·m²/s). With r' = v_O + ω × r for every body point:
+    /// ḣ = ω × h + m v_O and J̇ = [ω]J − J[ω] + 2 (v_O·h) 1 − h v_Oᵀ − v_O hᵀ.
+    #[inline]
+    pub(crate) fn rate(&self, v: &Motion) -> Self {
+        let (w, u) = (&v.ang, &v.lin);
+        let h = &self.first_moment;
+        let j = &self.inertia_origin;
+        // [ω]J column by column; −J[ω] is its transpose because J is symmetric.
+        let wj = Matrix3::from_columns(&[
+            w.cross(&j.column(0).into_owned()),
+            w.cross(&j.column(1).into_owned()),
+            w.cross(&j.column(2).into_owned()),
+        ]);
+        let uh = u * h.transpose();
+        Self {
+            mass: 0.0,
+            first_moment: w.cross(h) + u * self.mass,
+            inertia_origin: wj + wj.transpose() - uh - uh.transpose()
+                + Matrix3::from_diagonal_element(2.0 * u.dot(h)),
+        }
+    }
+
     /// Spatial momentum-type product I·v (moment about the frame origin; force), in this frame.
     #[inline]
     pub(crate) fn apply(&self, v: &Motion) -> Force {

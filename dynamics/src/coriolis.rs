@@ -6,6 +6,7 @@ use nalgebra::{Matrix3, Matrix6, SMatrix, SVector, Vector6};
 
 use crate::data::Data;
 use crate::inertia::skew;
+use crate::joint_frames::unit_motion_in;
 use crate::kinematics::{update_link_poses, update_world_poses};
 use crate::model::Model;
 use crate::spatial::{Motion, Pose};
@@ -109,16 +110,21 @@ pub fn coriolis_matrix<const N: usize>(
     q: &SVector<f64, N>,
     qd: &SVector<f64, N>,
 ) -> SMatrix<f64, N, N> {
-    update_world_poses(model, data, q);
+    let frames = model.joint_frames();
     // Forward: axes, axis rates, and each link's inertia, inertia rate and momentum, base frame.
     let mut v = Motion::ZERO;
     for i in 0..N {
-        let pose = &data.link_in_base[i];
-        let s = pose.motion_to_parent(model.joints()[i].motion_subspace());
+        let local = frames.pose(i, q[i]);
+        data.joint_in_base[i] = match i.checked_sub(1) {
+            None => local,
+            Some(parent) => data.joint_in_base[parent].compose(&local),
+        };
+        let pose = &data.joint_in_base[i];
+        let s = unit_motion_in(frames.kind(i), pose);
         v = v.add(&s.scale(qd[i]));
         data.axes_in_base[i] = s;
         data.axes_rate_in_base[i] = v.cross_motion(&s);
-        let inertia = model.links()[i].transformed(&pose.rot, &pose.trans);
+        let inertia = frames.links()[i].transformed(&pose.rot, &pose.trans);
         data.composite_momentum_in_base[i] = inertia.apply(&v);
         data.composite_rate_in_base[i] = inertia.rate(&v);
         data.composite_in_base[i] = inertia;

@@ -79,7 +79,7 @@ fn coriolis_matrix_is_linear_in_velocity() {
     let b = SVector::<f64, 7>::from([-0.7, 0.1, 0.2, -0.3, 0.9, -0.5, 1.1]);
     assert_eq!(
         coriolis_matrix(&model, &mut data, &q, &SVector::zeros()),
-        SMatrix::zeros()
+        SMatrix::<f64, 7, 7>::zeros()
     );
     let sum = coriolis_matrix(&model, &mut data, &q, &(a * 2.0 + b));
     let parts = coriolis_matrix(&model, &mut data, &q, &a) * 2.0

@@ -78,7 +78,7 @@ fn lwr4_matches_pinocchio_at_50_random_states() {
                 &vector(&s["coriolis_transpose_qd"]),
             ),
             check(
-                "C^T qd (Christoffel route)",
+                "C^T qd (from coriolis_matrix)",
                 k,
                 &(coriolis_matrix(&model, &mut data, &q, &qd).transpose() * qd),
                 &vector(&s["coriolis_transpose_qd"]),

@@ -8,6 +8,7 @@
 # Usage: tools/bench_vs_pinocchio.sh [ROUNDS]          (default 5)
 # Environment:
 #   PIN_VENV       venv with `pip install pin cmeel-eigen` (default /work/venv-pin)
+#   PIN_BENCH      the C++ harness binary (default target/pinocchio_bench, built if missing or stale)
 #   RUST_BASELINE  optional second Rust binary of the same example (e.g. an older build), run in the
 #                  same rounds and reported as "baseline"
 set -euo pipefail
@@ -17,7 +18,7 @@ here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$(cd "$here/.." && pwd)"
 golden="$root/../shared/data/lwr4-golden.json"
 [[ -f "$golden" ]] || golden="$root/dynamics/tests/fixtures/lwr4-golden.json"
-cpp="$root/target/pinocchio_bench"
+cpp="${PIN_BENCH:-$root/target/pinocchio_bench}"
 rust="$root/target/release/examples/bench_vs_pinocchio"
 out="$(mktemp -d)"
 trap 'rm -rf "$out"' EXIT
@@ -77,6 +78,7 @@ def timings(path):
 comparisons = [
     ("crba", "crba/A"), ("crba", "crba/B"),
     ("crba", "crba_symmetrised/A"), ("crba", "crba_symmetrised/B"),
+    ("crba", "crba_world/A"), ("crba", "crba_world/B"),
     ("coriolis_matrix", "coriolis_matrix/A"), ("coriolis_matrix", "coriolis_matrix/B"),
     ("rnea", "rnea/A"), ("rnea", "rnea/B"),
     ("gravity", "gravity/A"), ("gravity", "gravity/B"),

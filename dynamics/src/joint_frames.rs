@@ -102,6 +102,22 @@ pub(crate) fn project(kind: JointKind, f: &Force) -> f64 {
     }
 }
 
+/// Sᵀ(X f) for the joint of `kind` whose joint frame is the parent of `pose`, with `f` in the child
+/// frame: the one component of `pose.force_to_parent(f)` that the projection reads, alone.
+#[inline]
+pub(crate) fn project_in_parent(kind: JointKind, pose: &Pose, f: &Force) -> f64 {
+    let r = &pose.rot;
+    let row = |i: usize, v: &Vector3<f64>| r[(i, 0)] * v.x + r[(i, 1)] * v.y + r[(i, 2)] * v.z;
+    match kind {
+        // (R n + p × R f)_z
+        JointKind::Revolute => {
+            row(2, &f.ang) + pose.trans.x * row(1, &f.lin) - pose.trans.y * row(0, &f.lin)
+        }
+        // (R f)_z
+        JointKind::Prismatic => row(2, &f.lin),
+    }
+}
+
 /// I·S for the joint of `kind` with `inertia` in its joint frame (I·S is a column of I).
 #[inline]
 pub(crate) fn inertia_times_unit_motion(kind: JointKind, inertia: &InertialParameters) -> Force {

@@ -4,6 +4,9 @@
 // same way as dynamics/examples/bench_vs_pinocchio.rs (batches of calls; median and minimum over
 // the batches of the mean time per call).
 //
+// crba is timed as Pinocchio returns it (upper triangle only, LOCAL convention, its default), with
+// the lower triangle filled in afterwards (what dynamics::crba returns), and in the WORLD convention.
+//
 //   A: joint frames = classical DH frames, JointModelRevoluteUnaligned about Rx(alpha)^T e_z
 //      (the frame layout of dynamics::lwr4(), the one the fixture test compares against).
 //   B: JointModelRZ at the DH frames i-1, links moved into the joint frames (Pinocchio's fastest
@@ -223,6 +226,10 @@ int main(int argc, char** argv) {
                                                     keep(data.M);
                                                   },
                                                   kBatches, kPerBatch)});
+    // The other convention of Pinocchio's crba (the default is LOCAL); also upper triangle only.
+    rows.push_back({"crba_world" + tag,
+                    measure([&] { keep(pinocchio::crba(model, data, q, pinocchio::Convention::WORLD)); },
+                            kBatches, kPerBatch)});
     rows.push_back({"coriolis_matrix" + tag,
                     measure([&] { keep(pinocchio::computeCoriolisMatrix(model, data, q, qd)); },
                             kBatches, kPerBatch)});

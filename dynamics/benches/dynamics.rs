@@ -65,7 +65,7 @@ fn benches(c: &mut Criterion) {
             coriolis_transpose_times_velocity(&model, &mut data, black_box(&q), black_box(&qd))
         })
     });
-    group.bench_function("coriolis_matrix_christoffel", |b| {
+    group.bench_function("coriolis_matrix", |b| {
         b.iter(|| coriolis_matrix(&model, &mut data, black_box(&q), black_box(&qd)))
     });
     group.bench_function("payload_gravity_regressor", |b| {

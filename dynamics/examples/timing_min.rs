@@ -7,9 +7,9 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use dynamics::{
-    Data, compute_generalized_gravity, coriolis_transpose_times_velocity, crba, forward_dynamics,
-    gravity_regressor, joint_torque_regressor, lwr4, nonlinear_effects, payload_gravity_regressor,
-    payload_regressor, rnea,
+    Data, compute_generalized_gravity, coriolis_matrix, coriolis_transpose_times_velocity, crba,
+    forward_dynamics, gravity_regressor, joint_torque_regressor, lwr4, nonlinear_effects,
+    payload_gravity_regressor, payload_regressor, rnea,
 };
 use nalgebra::SVector;
 
@@ -38,7 +38,7 @@ fn main() {
     let tau = rnea(&model, &mut data, &q, &qd, &qdd);
     let d = &mut data;
     let m = &model;
-    let rows: [(&str, f64); 12] = [
+    let rows: [(&str, f64); 13] = [
         (
             "rnea",
             min_ns(|| {
@@ -67,6 +67,12 @@ fn main() {
             "coriolis_transpose_times_velocity",
             min_ns(|| {
                 black_box(coriolis_transpose_times_velocity(m, d, black_box(&q), &qd));
+            }),
+        ),
+        (
+            "coriolis_matrix",
+            min_ns(|| {
+                black_box(coriolis_matrix(m, d, black_box(&q), &qd));
             }),
         ),
         (

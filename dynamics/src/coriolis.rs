@@ -1,10 +1,12 @@
-//! Coriolis/centrifugal terms: the Christoffel-symbol matrix C(q, q̇), ∂M/∂q, Ṁ, and an O(n)
-//! recursion for Cᵀ(q, q̇)q̇ = ∂(½ q̇ᵀM(q)q̇)/∂q used by momentum observers.
+//! Coriolis/centrifugal terms: the Christoffel-consistent matrix C(q, q̇) by an O(n²) recursion,
+//! ∂M/∂q and Ṁ (an independent O(n⁴) route, for analysis and tests), and an O(n) recursion for
+//! Cᵀ(q, q̇)q̇ = ∂(½ q̇ᵀM(q)q̇)/∂q used by momentum observers.
 
 use nalgebra::{Matrix3, Matrix6, SMatrix, SVector, Vector6};
 
 use crate::data::Data;
 use crate::inertia::skew;
+use crate::joint_frames::unit_motion_in;
 use crate::kinematics::{update_link_poses, update_world_poses};
 use crate::model::Model;
 use crate::spatial::{Motion, Pose};
@@ -94,23 +96,63 @@ pub fn mass_matrix_time_derivative<const N: usize>(
     mdot
 }
 
-/// Coriolis/centrifugal matrix C(q, q̇) from the Christoffel symbols of M (so Ṁ − 2C is skew),
-/// N·m·s/rad; C(q,q̇)q̇ is the Coriolis/centrifugal torque.
+/// Coriolis/centrifugal matrix C(q, q̇), N·m·s/rad: the Christoffel-consistent one
+/// (C_ij = Σ_k Γ_ijk q̇_k with the Christoffel symbols of M, so Ṁ − 2C is skew), and C(q,q̇)q̇ is
+/// the Coriolis/centrifugal torque. Computed by an O(n²) recursion in the base frame (Echeandia &
+/// Wensing 2021; Pinocchio's `computeCoriolisMatrix`), not from ∂M/∂q. Allocation-free.
+///
+/// With S_j, Ṡ_j = v_j ×m S_j, and per subtree k the composite inertia I_k, its rate İ_k and
+/// momentum h_k, let B_k m = ½ İ_k m + ½ m ×* h_k. Then for a ≤ k (a on the path to k):
+/// C_ak = S_a · (I_k Ṡ_k + B_k S_k) and, for a < k, C_ka = (I_k S_k) · Ṡ_a + (B_kᵀ S_k) · S_a.
 pub fn coriolis_matrix<const N: usize>(
     model: &Model<N>,
     data: &mut Data<N>,
     q: &SVector<f64, N>,
     qd: &SVector<f64, N>,
 ) -> SMatrix<f64, N, N> {
-    let dm = mass_matrix_partial_derivatives(model, data, q);
-    let mut c = SMatrix::<f64, N, N>::zeros();
+    let frames = model.joint_frames();
+    // Forward: axes, axis rates, and each link's inertia, inertia rate and momentum, base frame.
+    let mut v = Motion::ZERO;
     for i in 0..N {
-        for j in 0..N {
-            let mut sum = 0.0;
-            for k in 0..N {
-                sum += 0.5 * (dm[k][(i, j)] + dm[j][(i, k)] - dm[i][(j, k)]) * qd[k];
-            }
-            c[(i, j)] = sum;
+        let local = frames.pose(i, q[i]);
+        data.joint_in_base[i] = match i.checked_sub(1) {
+            None => local,
+            Some(parent) => data.joint_in_base[parent].compose(&local),
+        };
+        let pose = &data.joint_in_base[i];
+        let s = unit_motion_in(frames.kind(i), pose);
+        v = v.add(&s.scale(qd[i]));
+        data.axes_in_base[i] = s;
+        data.axes_rate_in_base[i] = v.cross_motion(&s);
+        let inertia = frames.links()[i].transformed(&pose.rot, &pose.trans);
+        data.composite_momentum_in_base[i] = inertia.apply(&v);
+        data.composite_rate_in_base[i] = inertia.rate(&v);
+        data.composite_in_base[i] = inertia;
+    }
+    // Backward: subtree sums need no transforms in the base frame.
+    for i in (0..N.saturating_sub(1)).rev() {
+        data.composite_in_base[i] = data.composite_in_base[i].plus(&data.composite_in_base[i + 1]);
+        data.composite_rate_in_base[i] =
+            data.composite_rate_in_base[i].plus(&data.composite_rate_in_base[i + 1]);
+        data.composite_momentum_in_base[i] =
+            data.composite_momentum_in_base[i].add(&data.composite_momentum_in_base[i + 1]);
+    }
+    let mut c = SMatrix::<f64, N, N>::zeros();
+    for k in 0..N {
+        let s = &data.axes_in_base[k];
+        let inertia = &data.composite_in_base[k];
+        // B_k S_k = p + r and B_kᵀ S_k = p − r (İ is symmetric, m ↦ m ×* h is skew).
+        let p = data.composite_rate_in_base[k].apply(s).scale(0.5);
+        let r = s
+            .cross_force(&data.composite_momentum_in_base[k])
+            .scale(0.5);
+        let column = inertia.apply(&data.axes_rate_in_base[k]).add(&p).add(&r);
+        let momentum = inertia.apply(s);
+        let row = p.sub(&r);
+        c[(k, k)] = s.dot(&column);
+        for a in 0..k {
+            c[(a, k)] = data.axes_in_base[a].dot(&column);
+            c[(k, a)] = data.axes_rate_in_base[a].dot(&momentum) + data.axes_in_base[a].dot(&row);
         }
     }
     c

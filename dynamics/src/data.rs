@@ -12,6 +12,10 @@ pub struct Data<const N: usize> {
     pub(crate) link_in_parent: [Pose; N],
     /// Pose of link i in the base.
     pub(crate) link_in_base: [Pose; N],
+    /// Pose of moving joint frame i in moving joint frame i−1 (joint frame 0 in the base).
+    pub(crate) joint_in_previous: [Pose; N],
+    /// Pose of moving joint frame i in the base.
+    pub(crate) joint_in_base: [Pose; N],
     /// Spatial velocity of link i in its own frame.
     pub(crate) velocity: [Motion; N],
     /// Spatial acceleration (gravity included) of link i in its own frame.
@@ -20,8 +24,18 @@ pub struct Data<const N: usize> {
     pub(crate) force: [Force; N],
     /// Joint motion subspaces S_j re-expressed in the frame of the link being processed.
     pub(crate) axes: [Motion; N],
-    /// Composite inertia of the subtree rooted at link i, in link frame i.
+    /// Composite inertia of the subtree rooted at link i, in joint frame i.
     pub(crate) composite: [InertialParameters; N],
+    /// Joint motion subspace S_i in the base frame.
+    pub(crate) axes_in_base: [Motion; N],
+    /// Its rate Ṡ_i = v_i ×m S_i in the base frame.
+    pub(crate) axes_rate_in_base: [Motion; N],
+    /// Composite inertia of the subtree rooted at link i, in the base frame.
+    pub(crate) composite_in_base: [InertialParameters; N],
+    /// Composite rate of that inertia, Σ_{b ≥ i} İ_b (mass rate zero), in the base frame.
+    pub(crate) composite_rate_in_base: [InertialParameters; N],
+    /// Composite momentum Σ_{b ≥ i} I_b v_b in the base frame.
+    pub(crate) composite_momentum_in_base: [Force; N],
 }
 
 impl<const N: usize> Data<N> {
@@ -31,11 +45,18 @@ impl<const N: usize> Data<N> {
         Self {
             link_in_parent: [Pose::IDENTITY; N],
             link_in_base: [Pose::IDENTITY; N],
+            joint_in_previous: [Pose::IDENTITY; N],
+            joint_in_base: [Pose::IDENTITY; N],
             velocity: [Motion::ZERO; N],
             acceleration: [Motion::ZERO; N],
             force: [Force::ZERO; N],
             axes: [Motion::ZERO; N],
             composite: [InertialParameters::zero(); N],
+            axes_in_base: [Motion::ZERO; N],
+            axes_rate_in_base: [Motion::ZERO; N],
+            composite_in_base: [InertialParameters::zero(); N],
+            composite_rate_in_base: [InertialParameters::zero(); N],
+            composite_momentum_in_base: [Force::ZERO; N],
         }
     }
 }

@@ -112,20 +112,30 @@ impl InertialParameters {
     /// The same body expressed in a frame F, given this body's frame pose in F (rotation
     /// `rotation`, origin `translation` in m): c_F = R·c + p, J moved with Steiner.
     pub fn transformed(&self, rotation: &Matrix3<f64>, translation: &Vector3<f64>) -> Self {
-        let h_rot = rotation * self.first_moment;
+        let r = rotation;
+        let h_rot = r * self.first_moment;
         let p = translation;
-        // J_F = R J Rᵀ − m S(p)² − S(p)S(Rh) − S(Rh)S(p), with S(a)S(b) = b aᵀ − (a·b) 1:
-        //     = R J Rᵀ + m(|p|² 1 − p pᵀ) + 2 (p·Rh) 1 − Rh pᵀ − p (Rh)ᵀ
-        let diagonal = self.mass * p.norm_squared() + 2.0 * p.dot(&h_rot);
-        let inertia = rotation * self.inertia_origin * rotation.transpose()
-            + Matrix3::from_diagonal_element(diagonal)
-            - p * p.transpose() * self.mass
-            - h_rot * p.transpose()
-            - p * h_rot.transpose();
+        // J_F = R J Rᵀ − m S(p)² − S(p)S(Rh) − S(Rh)S(p), with S(a)S(b) = b aᵀ − (a·b) 1 and
+        // w = Rh + m p / 2:  J_F = R J Rᵀ + 2 (p·w) 1 − p wᵀ − w pᵀ.
+        let w = h_rot + p * (0.5 * self.mass);
+        let diagonal = 2.0 * p.dot(&w);
+        // R J Rᵀ is symmetric: form J Rᵀ, then only the upper triangle of R (J Rᵀ).
+        let jrt = self.inertia_origin * r.transpose();
+        let entry = |i: usize, k: usize| {
+            r[(i, 0)] * jrt[(0, k)] + r[(i, 1)] * jrt[(1, k)] + r[(i, 2)] * jrt[(2, k)]
+                - p[i] * w[k]
+                - w[i] * p[k]
+        };
+        let (xx, yy, zz) = (
+            entry(0, 0) + diagonal,
+            entry(1, 1) + diagonal,
+            entry(2, 2) + diagonal,
+        );
+        let (xy, xz, yz) = (entry(0, 1), entry(0, 2), entry(1, 2));
         Self {
             mass: self.mass,
             first_moment: translation * self.mass + h_rot,
-            inertia_origin: inertia,
+            inertia_origin: Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz),
         }
     }
 
@@ -170,6 +180,30 @@ impl InertialParameters {
             return Err(DynamicsError::TriangleInequality { principal_moments });
         }
         Ok(())
+    }
+
+    /// Rate of change of these parameters, expressed in a fixed frame, while the body moves with
+    /// spatial velocity `v` (same frame): İ = v ×* I − I v×, as parameters with zero mass rate
+    /// (kg·m/s and kg·m²/s). With r' = v_O + ω × r for every body point:
+    /// ḣ = ω × h + m v_O and J̇ = [ω]J − J[ω] + 2 (v_O·h) 1 − h v_Oᵀ − v_O hᵀ.
+    #[inline]
+    pub(crate) fn rate(&self, v: &Motion) -> Self {
+        let (w, u) = (&v.ang, &v.lin);
+        let h = &self.first_moment;
+        let j = &self.inertia_origin;
+        // [ω]J column by column; −J[ω] is its transpose because J is symmetric.
+        let wj = Matrix3::from_columns(&[
+            w.cross(&j.column(0).into_owned()),
+            w.cross(&j.column(1).into_owned()),
+            w.cross(&j.column(2).into_owned()),
+        ]);
+        let uh = u * h.transpose();
+        Self {
+            mass: 0.0,
+            first_moment: w.cross(h) + u * self.mass,
+            inertia_origin: wj + wj.transpose() - uh - uh.transpose()
+                + Matrix3::from_diagonal_element(2.0 * u.dot(h)),
+        }
     }
 
     /// Spatial momentum-type product I·v (moment about the frame origin; force), in this frame.

@@ -168,6 +168,18 @@ impl Joint {
         self.placement * motion * self.body_in_joint
     }
 
+    /// Pose of the joint frame at q = 0 in the parent link frame (matrix form of `placement`).
+    #[inline]
+    pub(crate) fn placement_pose(&self) -> &Pose {
+        &self.placement_pose
+    }
+
+    /// Pose of the link frame in the moving joint frame (matrix form of `body_in_joint`).
+    #[inline]
+    pub(crate) fn body_pose(&self) -> &Pose {
+        &self.body_pose
+    }
+
     /// Motion subspace S (unit joint velocity as a spatial motion vector) in the link frame.
     #[inline]
     pub(crate) fn motion_subspace(&self) -> &Motion {

@@ -33,6 +33,7 @@ mod error;
 mod forward_dynamics;
 mod inertia;
 mod joint;
+mod joint_frames;
 mod kinematics;
 mod model;
 mod regressor;

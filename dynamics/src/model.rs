@@ -5,6 +5,7 @@ use nalgebra::{Isometry3, SVector, Vector3};
 use crate::error::{DynamicsError, check_finite_slice};
 use crate::inertia::InertialParameters;
 use crate::joint::Joint;
+use crate::joint_frames::JointFrames;
 
 /// Joint limits of an N-joint arm.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -90,6 +91,8 @@ pub struct Model<const N: usize> {
     gravity: Vector3<f64>,
     flange: Isometry3<f64>,
     limits: JointLimits<N>,
+    // Derived from `joints` and `links`; every constructor that sets either rebuilds it.
+    joint_frames: JointFrames<N>,
 }
 
 impl<const N: usize> Model<N> {
@@ -121,6 +124,7 @@ impl<const N: usize> Model<N> {
         check_finite_slice("flange translation", flange.translation.vector.as_slice())?;
         check_finite_slice("flange rotation", flange.rotation.coords.as_slice())?;
         limits.validate()?;
+        let joint_frames = JointFrames::new(&joints, &links);
         Ok(Self {
             name: name.into(),
             joints,
@@ -128,6 +132,7 @@ impl<const N: usize> Model<N> {
             gravity,
             flange,
             limits,
+            joint_frames,
         })
     }
 
@@ -168,6 +173,7 @@ impl<const N: usize> Model<N> {
         if let Some(last) = model.links.last_mut() {
             *last = last.plus(payload);
         }
+        model.joint_frames = JointFrames::new(&model.joints, &model.links);
         model
     }
 
@@ -176,6 +182,7 @@ impl<const N: usize> Model<N> {
     pub fn with_links(&self, links: [InertialParameters; N]) -> Model<N> {
         let mut model = self.clone();
         model.links = links;
+        model.joint_frames = JointFrames::new(&model.joints, &model.links);
         model
     }
 
@@ -212,6 +219,11 @@ impl<const N: usize> Model<N> {
         let mut model = self.clone();
         model.limits = limits;
         model
+    }
+
+    /// The chain in its moving joint frames (every joint axis along z there).
+    pub(crate) fn joint_frames(&self) -> &JointFrames<N> {
+        &self.joint_frames
     }
 
     /// Total mass of all links, kg.

@@ -79,6 +79,24 @@ impl Force {
         lin: Vector3::new(0.0, 0.0, 0.0),
     };
 
+    /// self scaled by `s`.
+    #[inline]
+    pub fn scale(&self, s: f64) -> Force {
+        Force {
+            ang: self.ang * s,
+            lin: self.lin * s,
+        }
+    }
+
+    /// self − other.
+    #[inline]
+    pub fn sub(&self, other: &Force) -> Force {
+        Force {
+            ang: self.ang - other.ang,
+            lin: self.lin - other.lin,
+        }
+    }
+
     /// self + other.
     #[inline]
     pub fn add(&self, other: &Force) -> Force {

@@ -2,9 +2,9 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 use dynamics::{
-    Data, compute_generalized_gravity, coriolis_transpose_times_velocity, crba, forward_dynamics,
-    forward_kinematics, gravity_regressor, joint_torque_regressor, lwr4, nonlinear_effects,
-    payload_gravity_regressor, payload_regressor, point_jacobian, rnea,
+    Data, compute_generalized_gravity, coriolis_matrix, coriolis_transpose_times_velocity, crba,
+    forward_dynamics, forward_kinematics, gravity_regressor, joint_torque_regressor, lwr4,
+    nonlinear_effects, payload_gravity_regressor, payload_regressor, point_jacobian, rnea,
 };
 use nalgebra::{SVector, Vector3};
 
@@ -52,6 +52,12 @@ fn hot_paths_do_not_allocate() {
         "coriolis_transpose_times_velocity",
         alloc_counter::count_allocations(|| {
             sink += coriolis_transpose_times_velocity(&model, &mut data, &q, &qd)[1]
+        }),
+    );
+    check(
+        "coriolis_matrix",
+        alloc_counter::count_allocations(|| {
+            sink += coriolis_matrix(&model, &mut data, &q, &qd)[(1, 2)]
         }),
     );
     check(

@@ -12,6 +12,7 @@ use nalgebra::{DMatrix, SMatrix, SVector};
 use serde_json::Value;
 
 mod common;
+use common::christoffel::christoffel_coriolis_matrix;
 use common::{matrix, vector};
 
 const TOLERANCE: f64 = 1e-9;
@@ -77,7 +78,7 @@ fn lwr4_matches_pinocchio_at_50_random_states() {
                 &vector(&s["coriolis_transpose_qd"]),
             ),
             check(
-                "C^T qd (Christoffel route)",
+                "C^T qd (from coriolis_matrix)",
                 k,
                 &(coriolis_matrix(&model, &mut data, &q, &qd).transpose() * qd),
                 &vector(&s["coriolis_transpose_qd"]),
@@ -234,6 +235,13 @@ fn generic_arm_with_prismatic_joints_matches_pinocchio() {
             k,
             &coriolis_transpose_times_velocity(&model, &mut data, &q, &qd),
             &(coriolis_matrix(&model, &mut data, &q, &qd).transpose() * qd),
+        );
+        // Prismatic joints and a ≠ 0: the recursion is still the Christoffel matrix.
+        check(
+            "C recursive vs Christoffel",
+            k,
+            &coriolis_matrix(&model, &mut data, &q, &qd),
+            &christoffel_coriolis_matrix(&model, &mut data, &q, &qd),
         );
     }
     eprintln!("generic arm: worst relative difference to Pinocchio {worst:e}");

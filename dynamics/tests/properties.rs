@@ -87,8 +87,8 @@ proptest! {
         let model = lwr4();
         let mut data = Data::new(&model);
         let fast = coriolis_transpose_times_velocity(&model, &mut data, &q, &qd);
-        let christoffel = coriolis_matrix(&model, &mut data, &q, &qd).transpose() * qd;
-        prop_assert!(rel_err(&fast, &christoffel) < 1e-12, "fast {} vs Christoffel {}", fast, christoffel);
+        let from_matrix = coriolis_matrix(&model, &mut data, &q, &qd).transpose() * qd;
+        prop_assert!(rel_err(&fast, &from_matrix) < 1e-12, "fast {} vs Cᵀq̇ from C {}", fast, from_matrix);
         // Third route: Cᵀq̇ = Ṁq̇ − Cq̇ with Cq̇ from the RNEA (h − g).
         let mdot = mass_matrix_time_derivative(&model, &mut data, &q, &qd);
         let c_qd = nonlinear_effects(&model, &mut data, &q, &qd) - compute_generalized_gravity(&model, &mut data, &q);

@@ -3,8 +3,8 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 use dynamics::{
-    Data, DynamicsError, Model, compute_generalized_gravity, crba, flange_pose, lwr4, planar_2r,
-    rnea,
+    Data, DynamicsError, Model, compute_generalized_gravity, coriolis_matrix, crba, flange_pose,
+    lwr4, planar_2r, rnea,
 };
 use nalgebra::SVector;
 
@@ -37,6 +37,9 @@ fn assert_same_dynamics(a: &Model<7>, b: &Model<7>, tolerance: f64) {
         let ta = rnea(a, &mut data, &q, &qd, &qdd);
         let tb = rnea(b, &mut data, &q, &qd, &qdd);
         assert!((ta - tb).abs().max() < tolerance, "tau: {ta} vs {tb}");
+        let ca = coriolis_matrix(a, &mut data, &q, &qd);
+        let cb = coriolis_matrix(b, &mut data, &q, &qd);
+        assert!((ca - cb).abs().max() < tolerance, "C: {ca} vs {cb}");
     }
 }
 
@@ -155,6 +158,13 @@ fn urdf_axes_off_z_fixed_joints_and_prismatic_joints() {
     // Mass matrix entry of the slide: total moving mass 3.5 kg.
     let m = crba(&model, &mut data, &q);
     assert!((m[(0, 0)] - 3.5).abs() < 1e-12);
+    // Cart and pendulum: M12 = −Σ m x sin q2 = −0.5 sin q2 and M11, M22 constant, so the only
+    // Christoffel term is C12 = ∂M12/∂q2 q̇2 = −0.5 cos q2 q̇2.
+    assert!((m[(0, 1)] + 0.5 * q[1].sin()).abs() < 1e-12);
+    let qd = SVector::<f64, 2>::new(0.7, -1.3);
+    let c = coriolis_matrix(&model, &mut data, &q, &qd);
+    let expected_c = nalgebra::Matrix2::new(0.0, -0.5 * q[1].cos() * qd[1], 0.0, 0.0);
+    assert!((c - expected_c).abs().max() < 1e-12, "C = {c}");
     // Flange = tool frame: 0.5 m along the arm.
     let flange = flange_pose(&model, &mut data, &q);
     let expected = nalgebra::Vector3::new(0.2 + 0.5 * q[1].cos(), 0.0, 0.6 - 0.5 * q[1].sin());

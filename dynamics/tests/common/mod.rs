@@ -2,6 +2,8 @@
 //! every length is checked so that a truncated fixture fails loudly instead of comparing less.
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
+pub mod christoffel;
+
 use nalgebra::{SMatrix, SVector};
 use serde_json::Value;
 

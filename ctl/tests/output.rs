@@ -204,7 +204,7 @@ async fn every_command_prints_text_with_units() {
                 "ARMED",
             ],
         ),
-        (&["tare"], &["tare stored    2 samples", "around [deg]"]),
+        (&["tare"], &["tare stored    2 poses", "around [deg]"]),
         (
             &["estimate-payload"],
             &[

@@ -196,7 +196,7 @@ async fn the_stored_tare_is_recorded_as_a_samples_file_the_offline_tools_read() 
     let file = dir.path().join("rec").join("tare.csv");
     let samples: Vec<estimator::samples::StaticSample<7>> =
         estimator::samples::read_csv(std::fs::File::open(&file).unwrap()).unwrap();
-    assert_eq!(samples.len(), 2);
+    assert_eq!(samples.len(), 3, "two poses and the revisit of the first");
     let offline = std::process::Command::new(env!("CARGO_BIN_EXE_fri-ctl"))
         .args(["offline", "estimate", "--samples"])
         .arg(&file)

@@ -110,8 +110,23 @@ pub type StaticSample = estimator::samples::StaticSample<7>;
 pub struct Tare {
     /// The pick pose around which the pattern was driven, rad.
     pub around: [f64; 7],
-    /// One sample per pose, in pattern order.
+    /// One sample per pose, in the order driven (a revisit of the first pose last).
     pub samples: Vec<StaticSample>,
+    /// Poses of the pattern (without the revisit); absent in files written before revisits:
+    /// then every sample is a pattern pose.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pattern_poses: Option<usize>,
+    /// When the tare ended, s since the Unix epoch (relates its controller times to a later
+    /// estimate's after the controller restarted); absent in older files.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub taken_unix_s: Option<f64>,
+}
+
+impl Tare {
+    /// Number of pattern poses the tare was taken at.
+    pub fn pattern_len(&self) -> usize {
+        self.pattern_poses.unwrap_or(self.samples.len())
+    }
 }
 
 /// Directory holding the service's persistent state.
@@ -281,6 +296,8 @@ mod tests {
                 [1.5; 7].into(),
                 [-1.0; 7].into(),
             )],
+            pattern_poses: Some(1),
+            taken_unix_s: Some(1.8e9),
         };
         store.save_tare(Some(&tare)).unwrap();
         assert_eq!(store.load_tare().unwrap(), Some(tare));

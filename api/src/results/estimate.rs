@@ -4,9 +4,11 @@ use serde::{Deserialize, Serialize};
 
 use super::lenient;
 
-/// Result of `estimate-payload`. Standard deviations are 1σ from the fit's residual variance
-/// (sensor noise, not a systematic model error). A component the poses cannot determine is
-/// NaN (`null` in JSON).
+/// Result of `estimate-payload`. Standard deviations are 1σ under the service's error model
+/// (averaging noise, the tare's noise, drift between tare and estimate, offset without a tare,
+/// and any scatter beyond them; [`UncertaintyReport`]); without sample evidence (a tare from an
+/// older version) they are the pose-to-pose scatter only. A component the poses cannot
+/// determine is NaN (`null` in JSON).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct EstimateResult {
     /// Estimator formulation used.
@@ -61,6 +63,76 @@ pub struct EstimateResult {
     pub around: [f64; 7],
     /// The estimate was applied to the observer and persisted.
     pub applied: bool,
+    /// Where the procedure's robot time went.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub timing: Option<super::ProcedureTiming>,
+    /// The uncertainty by source; absent when the samples carried no evidence.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub uncertainty: Option<UncertaintyReport>,
+}
+
+/// The uncertainty of an estimate by source (`estimator::error_model::Uncertainty`): the
+/// sources' variances add up to the reported one.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct UncertaintyReport {
+    /// One share per source.
+    pub sources: Vec<SourceShare>,
+    /// √(χ²/ν) of the fit's whitened residuals (1: the model explains the scatter).
+    #[serde(deserialize_with = "lenient::nan")]
+    pub scatter_ratio: f64,
+    /// Degrees of freedom ν of the fit.
+    pub dof: usize,
+    /// Drift rate of the torque offsets used, Nm/√s.
+    #[serde(deserialize_with = "lenient::nan")]
+    pub drift_rate: f64,
+    /// Drift rate measured from revisited poses alone, Nm/√s (absent without revisits).
+    #[serde(default)]
+    pub drift_rate_measured: Option<f64>,
+    /// Measured drift increments (joints × revisits).
+    pub drift_increments: usize,
+}
+
+/// One source's share of the uncertainty.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SourceShare {
+    /// Where it comes from.
+    pub source: UncertaintySource,
+    /// 1σ of the mass from this source alone, kg.
+    #[serde(deserialize_with = "lenient::nan")]
+    pub mass_std: f64,
+    /// 1σ of the CoM (frame 7) from this source alone, m.
+    #[serde(deserialize_with = "lenient::nan_array")]
+    pub com_std: [f64; 3],
+}
+
+/// A source of uncertainty (`estimator::error_model::Source`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum UncertaintySource {
+    /// Noise of the loaded samples' window means (batch means: correlation and quantisation
+    /// included).
+    Averaging,
+    /// Noise of the tare's window means.
+    TareAveraging,
+    /// Torque-sensor drift between each tare sample and its loaded sample.
+    Drift,
+    /// Torque offset and controller model error (no tare).
+    Offset,
+    /// Scatter beyond the model.
+    Scatter,
+}
+
+impl UncertaintySource {
+    /// A short name for tables.
+    pub fn label(self) -> &'static str {
+        match self {
+            UncertaintySource::Averaging => "averaging",
+            UncertaintySource::TareAveraging => "tare averaging",
+            UncertaintySource::Drift => "drift",
+            UncertaintySource::Offset => "offset / model",
+            UncertaintySource::Scatter => "scatter beyond model",
+        }
+    }
 }
 
 /// Formulation of the static estimator (`estimator::estimate::Method`).

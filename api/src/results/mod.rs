@@ -28,7 +28,9 @@ pub use fri::session::{RejectionCounters, SessionStatistics};
 pub use fri::wire::InterfaceStatistics;
 
 pub use collision::{CollisionResult, MonitorSettings};
-pub use estimate::{Correction, EstimateMethod, EstimateResult};
+pub use estimate::{
+    Correction, EstimateMethod, EstimateResult, SourceShare, UncertaintyReport, UncertaintySource,
+};
 pub use event::{Event, RawEvent};
 pub use payload::{AppliedPayload, PayloadResult};
 pub use progress::{Phase, Progress, Workflow};
@@ -38,7 +40,7 @@ pub use sample::SampleResult;
 pub use state::ServiceState;
 pub use status::{FriStatus, StatusResult};
 pub use stop::{ControllerLink, StopResult};
-pub use tare::TareResult;
+pub use tare::{ProcedureTiming, TareResult};
 pub use watch::{
     AbortReason, CollisionDetected, MonitorRestarted, MoveAborted, Resumed, ResyncReason,
     StateLine, StopCause, StopKind, Stopped, WatchResult, Watching,

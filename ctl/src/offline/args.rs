@@ -54,9 +54,23 @@ pub struct EstimateArgs {
     /// Largest accepted joint-position difference between loaded and tare poses, rad.
     #[arg(long, default_value_t = estimator::correction::DEFAULT_TARE_TOLERANCE)]
     pub tare_tolerance: f64,
+    /// Prior random-walk rate of the torque offsets, Nm/√s (0 to 0.1), for samples that carry
+    /// their evidence (files the service recorded): the σ then includes averaging noise, the
+    /// tare's noise and drift (docs/estimation.md).
+    #[arg(long, default_value_t = 0.002, value_parser = drift_rate)]
+    pub drift_rate: f64,
     /// Print one JSON object instead of the report.
     #[arg(long)]
     pub json: bool,
+}
+
+fn drift_rate(text: &str) -> Result<f64, String> {
+    let v: f64 = text.parse().map_err(|e| format!("{e}"))?;
+    if (0.0..=0.1).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("{v} is outside 0 to 0.1 Nm/√s"))
+    }
 }
 
 /// `fri-ctl offline coefficients`.

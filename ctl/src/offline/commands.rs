@@ -8,6 +8,7 @@ use anyhow::{Context, bail};
 use dynamics::Model;
 use estimator::CoefficientSet;
 use estimator::correction::{Calibration, estimate_with_calibration, estimate_with_tare};
+use estimator::error_model::{DriftPrior, Reference, estimate_modelled};
 use estimator::estimate::{self as static_estimate, EstimateOptions, Method};
 use estimator::plausible::Ranges;
 use estimator::poses::{self, Criterion, Nominal};
@@ -56,9 +57,21 @@ fn estimate_n<const N: usize>(
 ) -> anyhow::Result<()> {
     let samples = read_samples::<N>(&a.samples, &model)?;
     let opts = options(a.method, a.max_velocity);
-    let est = if let Some(tare_path) = &a.tare {
-        let tare = read_samples::<N>(tare_path, &model)?;
-        estimate_with_tare(&model, &samples, &tare, a.tare_tolerance, &opts).with_context(|| {
+    let tare = a
+        .tare
+        .as_ref()
+        .map(|p| read_samples::<N>(p, &model))
+        .transpose()?;
+    let evidence = |s: &[StaticSample<N>]| s.iter().all(|x| x.evidence.is_some());
+    if matches!(a.method, MethodArg::Direct)
+        && a.calibration.is_none()
+        && evidence(&samples)
+        && tare.as_deref().is_none_or(evidence)
+    {
+        return estimate_modelled_n(&model, a, &samples, tare.as_deref(), &opts, out);
+    }
+    let est = if let (Some(tare_path), Some(tare)) = (&a.tare, &tare) {
+        estimate_with_tare(&model, &samples, tare, a.tare_tolerance, &opts).with_context(|| {
             format!(
                 "tare estimate from {} and {}",
                 a.samples.display(),
@@ -80,6 +93,42 @@ fn estimate_n<const N: usize>(
     }
     Ok(())
 }
+
+/// The estimate under the error model, for samples with their evidence.
+fn estimate_modelled_n<const N: usize>(
+    model: &Model<N>,
+    a: &EstimateArgs,
+    samples: &[StaticSample<N>],
+    tare: Option<&[StaticSample<N>]>,
+    opts: &EstimateOptions,
+    out: &mut dyn Write,
+) -> anyhow::Result<()> {
+    let reference = match tare {
+        Some(t) => Reference::Tare(t),
+        None => Reference::Controller {
+            offset_std: UNTARED_OFFSET_STD,
+        },
+    };
+    let drift = DriftPrior {
+        rate: a.drift_rate,
+        weight: 7.0,
+    };
+    let (est, u) = estimate_modelled(model, samples, reference, drift, opts)
+        .with_context(|| format!("estimate from {}", a.samples.display()))?;
+    if a.json {
+        let mut v = serde_json::to_value(&est)?;
+        v["uncertainty"] = serde_json::to_value(&u)?;
+        writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
+    } else {
+        write!(out, "{}", report::payload(&est, N))?;
+        write!(out, "{}", report::uncertainty(&u))?;
+    }
+    Ok(())
+}
+
+/// Without a tare: 1σ of the per-joint constant error of τ_J − g_ctrl, Nm (the service's
+/// `estimation.untared_offset_std` default).
+const UNTARED_OFFSET_STD: f64 = 0.2;
 
 /// `offline estimate`.
 pub fn estimate(a: &EstimateArgs, out: &mut dyn Write) -> anyhow::Result<()> {

@@ -133,3 +133,33 @@ pub fn prediction(p: &Prediction, sigma: f64) -> String {
         p.condition_number
     )
 }
+
+/// The uncertainty by source (mass in g, CoM in mm) and the drift figures, as text.
+pub fn uncertainty(u: &estimator::error_model::Uncertainty) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::from("1σ by source (each alone; variances add):\n");
+    for part in &u.sources {
+        let _ = writeln!(
+            s,
+            "  {:<16} mass {:>8.3} g   com [mm] {:>7.3} {:>7.3} {:>7.3}",
+            format!("{:?}", part.source).to_lowercase(),
+            part.mass_std * 1e3,
+            part.com_std[0] * 1e3,
+            part.com_std[1] * 1e3,
+            part.com_std[2] * 1e3
+        );
+    }
+    let measured = u.drift_rate_measured.map_or_else(
+        || "none measured".to_owned(),
+        |m| format!("{:.2} mNm/√s measured", m * 1e3),
+    );
+    let _ = writeln!(
+        s,
+        "drift {:.2} mNm/√s used ({measured}, {} increments); scatter ratio {:.2} over {} dof",
+        u.drift_rate * 1e3,
+        u.drift_increments,
+        u.scatter_ratio,
+        u.dof
+    );
+    s
+}

@@ -5,18 +5,19 @@ use std::io::{self, Write};
 use clap::Args;
 
 use fri_api::protocol::Command;
-use fri_api::results::{Correction, EstimateMethod, EstimateResult};
+use fri_api::results::{Correction, EstimateMethod, EstimateResult, UncertaintyReport};
 
 use super::JsonFlag;
-use super::format::{fixed, joint_header, joint_row, joint_row_deg, xyz_mm};
+use super::format::{fixed, joint_header, joint_row, joint_row_deg, timing_line, xyz_mm};
 use super::pattern::PatternArgs;
 use super::runner::Operation;
 
 /// Long help of `estimate-payload`.
 pub(super) const HELP: &str = "\
 Drive the pose pattern WITH the payload, estimate its mass and centre of mass from the static \
-samples (least squares on the payload gravity regressor) and print them with 1σ \
-uncertainties: mass in kg, centre of mass in mm in frame 7 (the last DH frame, at the wrist \
+samples (generalised least squares on the payload gravity regressor under the service's \
+error model) and print them with 1σ uncertainties and the σ by source (averaging noise, the \
+tare's noise, sensor drift between tare and estimate, scatter beyond the model): mass in kg, centre of mass in mm in frame 7 (the last DH frame, at the wrist \
 point) and in the flange frame. With `--apply` the estimate is applied to the collision \
 observer and persisted, as `apply-payload` would.
 
@@ -107,6 +108,12 @@ pub(super) fn print(r: &EstimateResult, out: &mut dyn Write) -> io::Result<()> {
         fixed(r.residual_std, 3)
     )?;
     writeln!(out, "correction     {correction}")?;
+    if let Some(u) = &r.uncertainty {
+        print_uncertainty(u, out)?;
+    }
+    if let Some(t) = &r.timing {
+        writeln!(out, "{}", timing_line(t))?;
+    }
     joint_header(out)?;
     joint_row_deg(out, "around", &r.around, 2)?;
     if let Ok(rms) = <[f64; 7]>::try_from(r.residual_rms.as_slice()) {
@@ -118,6 +125,37 @@ pub(super) fn print(r: &EstimateResult, out: &mut dyn Write) -> io::Result<()> {
         "NOT applied (use --apply or `fri-ctl apply-payload`)"
     };
     writeln!(out, "payload        {applied}")
+}
+
+/// The σ by source: mass in g, CoM in mm (each source alone; the variances add up).
+fn print_uncertainty(u: &UncertaintyReport, out: &mut dyn Write) -> io::Result<()> {
+    writeln!(out, "1σ by source   mass [g]   com frame 7 [mm]")?;
+    for s in &u.sources {
+        writeln!(
+            out,
+            "  {:<20} {:>7}   {}",
+            s.source.label(),
+            fixed(s.mass_std * 1e3, 2),
+            xyz_mm(&s.com_std, 2)
+        )?;
+    }
+    let measured = u.drift_rate_measured.map_or_else(
+        || "not measured (no revisit)".to_owned(),
+        |m| {
+            format!(
+                "{} measured over {} increments",
+                fixed(m * 1e3, 2),
+                u.drift_increments
+            )
+        },
+    );
+    writeln!(
+        out,
+        "drift          {} mNm/√s used ({measured}); scatter ratio {} over {} dof",
+        fixed(u.drift_rate * 1e3, 2),
+        fixed(u.scatter_ratio, 2),
+        u.dof
+    )
 }
 
 #[cfg(test)]
@@ -147,6 +185,19 @@ mod tests {
             frame: "7".into(),
             around: [0.0; 7],
             applied: false,
+            timing: None,
+            uncertainty: Some(UncertaintyReport {
+                sources: vec![fri_api::results::SourceShare {
+                    source: fri_api::results::UncertaintySource::Drift,
+                    mass_std: 0.000_41,
+                    com_std: [0.000_2; 3],
+                }],
+                scatter_ratio: 0.93,
+                dof: 73,
+                drift_rate: 0.002_1,
+                drift_rate_measured: Some(0.002_3),
+                drift_increments: 14,
+            }),
         };
         let mut out = Vec::new();
         print(&r, &mut out).unwrap();
@@ -156,6 +207,8 @@ mod tests {
             "{text}"
         );
         assert!(text.contains("z +119.04"), "{text}");
+        assert!(text.contains("drift                   0.41"), "{text}");
+        assert!(text.contains("2.30 measured over 14 increments"), "{text}");
         assert!(
             text.contains("stored tare subtracted") && text.contains("NOT applied"),
             "{text}"

@@ -109,3 +109,15 @@ mod tests {
         );
     }
 }
+
+/// A procedure's robot time by phase, one line: `robot time 14.2 s (moving 9.1, settling 0.9,
+/// averaging 5.5)`.
+pub(crate) fn timing_line(t: &fri_api::results::ProcedureTiming) -> String {
+    format!(
+        "robot time     {} s (moving {}, settling {}, averaging {})",
+        fixed(t.total_s, 1),
+        fixed(t.moving_s, 1),
+        fixed(t.settling_s, 1),
+        fixed(t.averaging_s, 1)
+    )
+}

@@ -8,7 +8,7 @@ use fri_api::protocol::Command;
 use fri_api::results::TareResult;
 
 use super::JsonFlag;
-use super::format::{joint_header, joint_row, joint_row_deg};
+use super::format::{joint_header, joint_row, joint_row_deg, timing_line};
 use super::pattern::PatternArgs;
 use super::runner::Operation;
 
@@ -58,13 +58,13 @@ impl Operation for TareArgs {
     }
 
     fn print(&self, r: &TareResult, out: &mut dyn Write) -> io::Result<()> {
-        writeln!(
-            out,
-            "tare stored    {} samples (one per pose), centre:",
-            r.samples
-        )?;
+        writeln!(out, "tare stored    {} poses, centre:", r.samples)?;
         joint_header(out)?;
         joint_row_deg(out, "around", &r.around, 2)?;
-        joint_row(out, "around", "rad", &r.around, 4)
+        joint_row(out, "around", "rad", &r.around, 4)?;
+        match &r.timing {
+            Some(t) => writeln!(out, "{}", timing_line(t)),
+            None => Ok(()),
+        }
     }
 }

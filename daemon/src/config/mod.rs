@@ -216,6 +216,18 @@ pub struct EstimationConfig {
     pub pattern_step_deg: f64,
     /// Number of poses of the pattern (default 10, as in the paper's Sec. VI-A).
     pub pattern_poses: usize,
+    /// Drive back to the first pose at the end of a pattern and sample it again, so that the
+    /// torque sensors' drift over the procedure is measured (default true).
+    pub revisit_first_pose: bool,
+    /// Prior random-walk rate of the torque offsets, Nm/√s: σ of the drift after t seconds is
+    /// rate·√t (default 0.002, the mock robot's model; revisits measure the real one).
+    pub drift_rate: f64,
+    /// Weight of `drift_rate` against measured drift increments, in increments (one joint over
+    /// one revisit is one; default 7, one revisit's worth).
+    pub drift_prior_weight: f64,
+    /// Without a tare: 1σ of the per-joint constant error of Δτ = τ_J − g_ctrl (torque offset
+    /// and the controller's model error at the poses), Nm (default 0.2).
+    pub untared_offset_std: f64,
 }
 
 impl Default for EstimationConfig {
@@ -228,6 +240,10 @@ impl Default for EstimationConfig {
             average_s: 0.5,
             pattern_step_deg: 7.0,
             pattern_poses: 10,
+            revisit_first_pose: true,
+            drift_rate: 0.002,
+            drift_prior_weight: 7.0,
+            untared_offset_std: 0.2,
         }
     }
 }

@@ -156,6 +156,21 @@ impl Config {
             bounds::STEP_DEG,
         )?;
         count_in_range("estimation.pattern_poses", e.pattern_poses, bounds::POSES)?;
+        in_range(
+            "estimation.drift_rate",
+            e.drift_rate,
+            Range::new(0.0, 0.1, "Nm/√s"),
+        )?;
+        in_range(
+            "estimation.drift_prior_weight",
+            e.drift_prior_weight,
+            Range::new(0.0, 1000.0, "increments"),
+        )?;
+        in_range(
+            "estimation.untared_offset_std",
+            e.untared_offset_std,
+            Range::new(1e-3, 5.0, "Nm"),
+        )?;
         check(
             "operator.socket",
             !self.operator.socket.as_os_str().is_empty(),

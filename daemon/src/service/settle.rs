@@ -3,12 +3,14 @@
 //! Settled means that over the last `window` cycles every joint speed stayed below
 //! `max_velocity` and every joint torque's standard deviation stayed below `max_torque_std`;
 //! the caller bounds the wait (the paper waits 1 s). The average of q, τ_J and the controller's
-//! gravity over the following window is one static sample.
+//! gravity over a window that starts with the quiet settle window (already static data) is one
+//! static sample.
 
 use std::collections::VecDeque;
 
 use crate::ipc::RobotState;
 use crate::persistence::StaticSample;
+use estimator::samples::SampleEvidence;
 
 /// Sliding-window settle detector.
 #[derive(Debug, Clone)]
@@ -16,7 +18,7 @@ pub struct SettleDetector {
     window: usize,
     max_velocity: f64,
     max_torque_std: f64,
-    recent: VecDeque<([f64; 7], [f64; 7])>,
+    recent: VecDeque<RobotState>,
 }
 
 impl SettleDetector {
@@ -35,8 +37,14 @@ impl SettleDetector {
         if self.recent.len() == self.window {
             self.recent.pop_front();
         }
-        self.recent.push_back((s.qd, s.tau));
+        self.recent.push_back(*s);
         self.is_settled()
+    }
+
+    /// The states of the current window, oldest first (once settled: already static data,
+    /// the start of the sample's average).
+    pub fn window(&self) -> impl Iterator<Item = &RobotState> {
+        self.recent.iter()
     }
 
     /// Whether the current window is full and settled.
@@ -49,15 +57,15 @@ impl SettleDetector {
             if self
                 .recent
                 .iter()
-                .any(|(qd, _)| qd[j].is_nan() || qd[j].abs() >= self.max_velocity)
+                .any(|r| r.qd[j].is_nan() || r.qd[j].abs() >= self.max_velocity)
             {
                 return false;
             }
-            let mean = self.recent.iter().map(|(_, t)| t[j]).sum::<f64>() / n;
+            let mean = self.recent.iter().map(|r| r.tau[j]).sum::<f64>() / n;
             let var = self
                 .recent
                 .iter()
-                .map(|(_, t)| (t[j] - mean).powi(2))
+                .map(|r| (r.tau[j] - mean).powi(2))
                 .sum::<f64>()
                 / (n - 1.0);
             if var.is_nan() || var.sqrt() >= self.max_torque_std {
@@ -68,8 +76,13 @@ impl SettleDetector {
     }
 }
 
-/// Running average of q, τ_J and gravity plus the largest speed seen.
-#[derive(Debug, Clone, Default)]
+/// Batch means per averaging window for the standard error of the mean: enough batches for a
+/// usable scatter (9 degrees of freedom), batches long enough (50 cycles of a 0.5 s window) that
+/// the sensor's short correlation does not make neighbouring batches look independent.
+pub const BATCHES: usize = 10;
+
+/// Running average of q, τ_J and gravity, the largest speed seen, and batch means of τ_J.
+#[derive(Debug, Clone)]
 pub struct Averager {
     n: usize,
     q: [f64; 7],
@@ -79,12 +92,18 @@ pub struct Averager {
     max_speed: f64,
     first_q: Option<[f64; 7]>,
     last_q: [f64; 7],
+    first_t: Option<f64>,
+    last_t: f64,
+    batch_len: usize,
+    batch: [f64; 7],
+    batch_n: usize,
+    batch_means: Vec<[f64; 7]>,
 }
 
 /// An averaged static sample with quality figures.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AveragedSample {
-    /// The sample (means).
+    /// The sample (means), with its evidence except the settling time (the caller's).
     pub sample: StaticSample,
     /// Largest |q̇| of any joint in the window, rad/s.
     pub max_speed: f64,
@@ -97,6 +116,26 @@ pub struct AveragedSample {
 }
 
 impl Averager {
+    /// An averager for a window of `cycles` cycles (split into [`BATCHES`] batch means).
+    pub fn new(cycles: usize) -> Self {
+        Averager {
+            n: 0,
+            q: [0.0; 7],
+            tau: [0.0; 7],
+            gravity: [0.0; 7],
+            tau_sq: [0.0; 7],
+            max_speed: 0.0,
+            first_q: None,
+            last_q: [0.0; 7],
+            first_t: None,
+            last_t: 0.0,
+            batch_len: (cycles / BATCHES).max(1),
+            batch: [0.0; 7],
+            batch_n: 0,
+            batch_means: Vec::with_capacity(BATCHES + 1),
+        }
+    }
+
     /// Adds one cycle.
     pub fn push(&mut self, s: &RobotState) {
         self.n += 1;
@@ -105,10 +144,20 @@ impl Averager {
             self.tau[j] += s.tau[j];
             self.gravity[j] += s.gravity[j];
             self.tau_sq[j] += s.tau[j] * s.tau[j];
+            self.batch[j] += s.tau[j];
             self.max_speed = self.max_speed.max(s.qd[j].abs());
+        }
+        self.batch_n += 1;
+        if self.batch_n == self.batch_len {
+            let n = self.batch_n as f64;
+            self.batch_means.push(self.batch.map(|x| x / n));
+            self.batch = [0.0; 7];
+            self.batch_n = 0;
         }
         self.first_q.get_or_insert(s.q);
         self.last_q = s.q;
+        self.first_t.get_or_insert(s.time_s);
+        self.last_t = s.time_s;
     }
 
     /// Cycles added so far.
@@ -121,8 +170,9 @@ impl Averager {
         self.n == 0
     }
 
-    /// The average; `None` when empty.
-    pub fn finish(&self) -> Option<AveragedSample> {
+    /// The average; `None` when empty. `cycle_s` is the controller's cycle (the window's
+    /// length counts the last cycle's duration).
+    pub fn finish(&self, cycle_s: f64) -> Option<AveragedSample> {
         if self.n == 0 {
             return None;
         }
@@ -138,12 +188,42 @@ impl Averager {
         let drift = (0..7)
             .map(|j| (self.last_q[j] - first[j]).abs())
             .fold(0.0, f64::max);
+        let first_t = self.first_t.unwrap_or(self.last_t);
+        let mut sample =
+            StaticSample::new(mean(&self.q).into(), tau.into(), mean(&self.gravity).into());
+        sample.evidence = Some(SampleEvidence {
+            time_s: 0.5 * (first_t + self.last_t),
+            window_s: self.last_t - first_t + cycle_s,
+            settle_s: 0.0,
+            max_qd: self.max_speed,
+            tau_std: torque_std.into(),
+            tau_sem: self.standard_error(&torque_std).into(),
+        });
         Some(AveragedSample {
-            sample: StaticSample::new(mean(&self.q).into(), tau.into(), mean(&self.gravity).into()),
+            sample,
             max_speed: self.max_speed,
             torque_std,
             drift,
             cycles: self.n,
+        })
+    }
+
+    /// Standard error of the window mean per joint, Nm: the scatter of the complete batch
+    /// means over √batches; with fewer than two batches, the white-noise value std/√n.
+    fn standard_error(&self, torque_std: &[f64; 7]) -> [f64; 7] {
+        let b = self.batch_means.len();
+        if b < 2 {
+            return torque_std.map(|s| s / (self.n as f64).sqrt());
+        }
+        std::array::from_fn(|j| {
+            let m = self.batch_means.iter().map(|x| x[j]).sum::<f64>() / b as f64;
+            let var = self
+                .batch_means
+                .iter()
+                .map(|x| (x[j] - m).powi(2))
+                .sum::<f64>()
+                / (b - 1) as f64;
+            (var / b as f64).sqrt()
         })
     }
 }
@@ -189,16 +269,43 @@ mod tests {
 
     #[test]
     fn averages_and_reports_spread() {
-        let mut a = Averager::default();
-        assert!(a.finish().is_none());
+        let mut a = Averager::new(2);
+        assert!(a.finish(1e-3).is_none());
         a.push(&state(0.001, 1.0));
         a.push(&state(-0.002, 3.0));
-        let s = a.finish().unwrap();
+        let s = a.finish(1e-3).unwrap();
         assert_eq!(s.sample.tau.as_slice(), [2.0; 7]);
         assert_eq!(s.sample.gravity.as_slice(), [1.0; 7]);
         assert_eq!(s.sample.q.as_slice(), [0.5; 7]);
         assert!((s.torque_std[0] - 2f64.sqrt()).abs() < 1e-12);
         assert_eq!(s.max_speed, 0.002);
         assert_eq!(s.cycles, 2);
+    }
+
+    #[test]
+    fn the_standard_error_comes_from_batch_means() {
+        // 1000 cycles alternating ±1 Nm: white-noise formula 1/√1000, but every batch of 100
+        // averages to exactly 2 → batch means see no noise; a slow ramp is seen by the batches.
+        let mut a = Averager::new(1000);
+        for k in 0..1000 {
+            let mut s = state(0.0, if k % 2 == 0 { 1.0 } else { 3.0 });
+            s.time_s = 10.0 + k as f64 * 1e-3;
+            a.push(&s);
+        }
+        let s = a.finish(1e-3).unwrap();
+        let e = s.sample.evidence.unwrap();
+        assert!(e.tau_sem[0] < 1e-12, "{}", e.tau_sem[0]);
+        assert!((e.time_s - 10.4995).abs() < 1e-9 && (e.window_s - 1.0).abs() < 1e-9);
+        let mut a = Averager::new(1000);
+        for k in 0..1000 {
+            a.push(&state(0.0, 2.0 + k as f64 * 1e-3));
+        }
+        let e = a.finish(1e-3).unwrap().sample.evidence.unwrap();
+        // batch means 2.0495, 2.1495, ...: std 0.30277, over √10
+        assert!(
+            (e.tau_sem[3] - 0.302765 / 10f64.sqrt()).abs() < 1e-5,
+            "{}",
+            e.tau_sem[3]
+        );
     }
 }

@@ -38,7 +38,7 @@ impl ServiceCore {
         let mut settle_time = 0.0;
         let mut settling = settle;
         let mut settle_start_t = None;
-        let mut avg = Averager::default();
+        let mut avg = Averager::new(average_cycles);
         let wall_limit = Duration::from_secs_f64(e.settle_timeout_s + duration_s + 10.0);
         loop {
             tokio::select! {
@@ -50,14 +50,30 @@ impl ServiceCore {
                         if settling {
                             let t0 = *settle_start_t.get_or_insert(s.robot.time_s);
                             settle_time = s.robot.time_s - t0;
-                            if detector.push(&s.robot) || settle_time >= e.settle_timeout_s {
+                            if detector.push(&s.robot) {
+                                // The quiet window is static data already: it starts the
+                                // average, and the settling time is what came before it.
                                 settling = false;
+                                let mut quiet = 0usize;
+                                for r in detector.window().take(average_cycles) {
+                                    avg.push(r);
+                                    quiet += 1;
+                                }
+                                settle_time = (settle_time - (quiet as f64 - 1.0) * cycle_s).max(0.0);
+                            } else if settle_time >= e.settle_timeout_s {
+                                settling = false;
+                                continue;
+                            } else {
+                                continue;
                             }
-                            continue;
+                        } else {
+                            avg.push(&s.robot);
                         }
-                        avg.push(&s.robot);
                         if avg.len() >= average_cycles {
-                            let Some(sample) = avg.finish() else { continue };
+                            let Some(mut sample) = avg.finish(cycle_s) else { continue };
+                            if let Some(e) = &mut sample.sample.evidence {
+                                e.settle_s = settle_time;
+                            }
                             return Ok((sample, settle_time));
                         }
                     }
@@ -66,13 +82,13 @@ impl ServiceCore {
                     }
                     Ok(Update::Event(CycleEvent::Resynchronised { reason, .. })) => {
                         tracing::warn!(reason = %reason.describe(), "collision monitor restarted while sampling; restarting the window");
-                        avg = Averager::default();
+                        avg = Averager::new(average_cycles);
                     }
                     Ok(Update::Event(_)) => {}
                     Err(RecvError::Lagged(n)) => {
                         // The sample must be contiguous: start over.
                         tracing::warn!(lost = n, "sampling fell behind; restarting the window");
-                        avg = Averager::default();
+                        avg = Averager::new(average_cycles);
                     }
                     Err(RecvError::Closed) => return Err(err(ErrorCode::NotReady, "the FRI loop has stopped")),
                 },

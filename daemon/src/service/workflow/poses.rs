@@ -1,16 +1,42 @@
-//! The pose pattern shared by `tare` and `estimate-payload`: drive each pose, take one averaged
-//! static sample there, return to the start pose; any stop or contact ends it with its cause.
+//! The pose pattern shared by `tare` and `estimate-payload`: drive each pose (in the order of
+//! least robot time: the pattern is a set), take one averaged
+//! static sample there, revisit the first pose (the pair measures the sensors' drift over the
+//! procedure), return to the start pose; any stop or contact ends it with its cause.
 
-use fri_api::results::{Event, Phase, Progress, Workflow};
+use fri_api::results::{Event, Phase, ProcedureTiming, Progress, Workflow};
 
+use nalgebra::SVector;
+
+use crate::motion::JointMove;
 use crate::operator::server::EventSink;
 use crate::service::core::{ServiceCore, err};
+use crate::service::cycle::ProcessorSettings;
 use crate::service::pattern::{PatternKind, poses as pattern_poses};
 use crate::service::settle::AveragedSample;
 use fri_api::protocol::{ErrorCode, OperatorError};
 
 impl ServiceCore {
-    /// Drives the pattern, one averaged sample per pose, then returns to the start pose.
+    /// The pattern's poses in the order of least robot time at the configured motion limits,
+    /// planned from the centre so that a tare and a later estimate visit them alike.
+    fn travel_order(
+        &self,
+        around: &[f64; 7],
+        poses: Vec<[f64; 7]>,
+        revisit: bool,
+    ) -> Vec<[f64; 7]> {
+        let limits = ProcessorSettings::from_config(&self.config).limits;
+        let time = |a: &[f64; 7], b: &[f64; 7]| {
+            JointMove::new(SVector::from(*a), SVector::from(*b), limits)
+                .map_or(f64::INFINITY, |m| m.end_time())
+        };
+        trajectory::tour::order(around, &poses, revisit, time)
+            .into_iter()
+            .map(|i| poses[i])
+            .collect()
+    }
+
+    /// Drives the pattern, one averaged sample per pose (plus the revisit of the first when
+    /// `estimation.revisit_first_pose`), then returns to the start pose.
     pub(super) async fn run_pattern(
         &self,
         around: Option<[f64; 7]>,
@@ -19,8 +45,14 @@ impl ServiceCore {
         kind: PatternKind,
         workflow: Workflow,
         events: &EventSink,
-    ) -> Result<(Vec<AveragedSample>, [f64; 7]), OperatorError> {
+    ) -> Result<(Vec<AveragedSample>, [f64; 7], ProcedureTiming), OperatorError> {
         let latest = self.latest()?;
+        let now = || {
+            self.shared
+                .latest()
+                .map_or(latest.robot.time_s, |s| s.robot.time_s)
+        };
+        let mut timing = ProcedureTiming::default();
         let start_q = latest.robot.q;
         let around = around.unwrap_or(start_q);
         let count = poses.unwrap_or(self.config.estimation.pattern_poses);
@@ -40,6 +72,12 @@ impl ServiceCore {
                 format!("pose design failed: {e}"),
             )
         })?;
+        let revisit = self.config.estimation.revisit_first_pose;
+        let mut pattern = self.travel_order(&around, pattern, revisit);
+        if revisit && let Some(first) = pattern.first().copied() {
+            pattern.push(first);
+        }
+        let count = pattern.len();
         let mut baseline = Some(latest.robot.residual);
         let mut samples = Vec::with_capacity(count);
         for (k, pose) in pattern.iter().enumerate() {
@@ -55,7 +93,9 @@ impl ServiceCore {
             events
                 .event(&Event::Progress(progress(Phase::Moving)))
                 .await;
+            let move_start = now();
             let r = self.move_to(*pose, baseline).await;
+            timing.moving_s += now() - move_start;
             if let Err(e) = r {
                 self.release().await;
                 return Err(e);
@@ -76,6 +116,8 @@ impl ServiceCore {
                     return Err(e);
                 }
             };
+            timing.settling_s += settle_s;
+            timing.averaging_s += sample.sample.evidence.map_or(0.0, |e| e.window_s);
             let done = Progress {
                 settle_s: Some(settle_s),
                 max_speed: Some(sample.max_speed),
@@ -95,9 +137,12 @@ impl ServiceCore {
                 max_speed: None,
             }))
             .await;
+        let move_start = now();
         let back = self.move_to(start_q, baseline).await;
+        timing.moving_s += now() - move_start;
+        timing.total_s = now() - latest.robot.time_s;
         self.release().await;
         back?;
-        Ok((samples, around))
+        Ok((samples, around, timing))
     }
 }

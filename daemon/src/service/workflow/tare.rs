@@ -20,18 +20,28 @@ impl ServiceCore {
         events: &EventSink,
     ) -> Result<TareResult, OperatorError> {
         let _guard = self.busy()?;
-        let (samples, around) = self
+        let (samples, around, timing) = self
             .run_pattern(around, poses, step_deg, kind, Workflow::Tare, events)
             .await?;
+        let revisit = usize::from(self.config.estimation.revisit_first_pose);
         let tare = Tare {
             around,
+            pattern_poses: Some(samples.len().saturating_sub(revisit)),
             samples: samples.iter().map(|s| s.sample).collect(),
+            taken_unix_s: std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .ok()
+                .map(|d| d.as_secs_f64()),
         };
         self.store
             .save_tare(Some(&tare))
             .map_err(|e| err(ErrorCode::Internal, format!("tare not persisted: {e}")))?;
-        let n = tare.samples.len();
+        let n = tare.pattern_len();
         self.persistent(|s| s.tare = Some(tare));
-        Ok(TareResult { samples: n, around })
+        Ok(TareResult {
+            samples: n,
+            around,
+            timing: Some(timing),
+        })
     }
 }

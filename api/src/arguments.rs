@@ -95,6 +95,13 @@ const ARGUMENTS: &[Argument] = &[
         range: |_| bounds::gain(bounds::MIN_CYCLE_S),
     },
     Argument {
+        commands: &["collision"],
+        field: "pause_s",
+        elements: None,
+        kind: Kind::Number,
+        range: |_| bounds::PAUSE_S,
+    },
+    Argument {
         commands: &["record"],
         field: "duration_s",
         elements: None,
@@ -279,7 +286,7 @@ mod tests {
         );
         assert_eq!(
             message("collision", json!({"gains": vec![1e308; 7]})),
-            "gains[0] = 1e308 1/s is outside 1…2000 1/s (joint 1)"
+            "gains[0] = 1e308 1/s is outside 1…500 1/s (joint 1)"
         );
         let m = message("estimate-payload", json!({"around": vec![1e300; 7]}));
         assert!(

@@ -151,12 +151,34 @@ pub fn threshold(j: usize) -> Range {
 /// contact of tens of milliseconds at all.
 pub const MIN_GAIN: f64 = 1.0;
 
-/// Observer gain range at controller cycle `cycle_s`, 1/s: at most 2/T, the Euler form's
-/// stability limit K·T < 2 (the exact form is stable beyond it but then no longer filters: its
-/// pole e^{−KT} < 0.14 makes r the raw torque difference). 2000 1/s at 1 ms.
+/// Largest observer gain × controller cycle, K_I·T (dimensionless). Derivation, per joint the
+/// residual update is r_k = a·r_{k−1} + b·u_k (`safety::Discretisation`):
+/// - the observer bridges up to two lost packets (`max_dt_factor` 3), so a step can be 3T; the
+///   paper's Euler form a = 1 − K·dt is stable only for K·dt < 2, i.e. K·T < 2/3, and at K·T = ½
+///   its pole at 3T is −½ (stable, decaying) and at T is +½ (no overshoot);
+/// - the exact form's pole e^{−KT} is 0.61 at K·T = ½: the residual still averages a few samples
+///   (at K·T = 2 it would be 0.14 and r the raw torque difference of one sample), and its corner
+///   K = 500 rad/s at 1 ms stays below the 200 Hz velocity filter (1257 rad/s) and a sixth of
+///   the Nyquist rate π/T, so the sampled observer behaves like the continuous K/(s + K);
+/// - Euler and exact forms then differ by (K·T)²/2 ≈ 0.13 of a step, not by half of it (K·T = 1).
+///
+/// The default 400 1/s (K·T = 0.4 at 1 ms) lies inside; faster detection comes from lower
+/// thresholds, not from gains beyond it.
+pub const MAX_GAIN_PERIOD_PRODUCT: f64 = 0.5;
+
+/// Observer gain range at controller cycle `cycle_s`, 1/s: [`MIN_GAIN`] to
+/// [`MAX_GAIN_PERIOD_PRODUCT`]/T (500 1/s at 1 ms).
 pub fn gain(cycle_s: f64) -> Range {
-    Range::new(MIN_GAIN, 2.0 / cycle_s.max(MIN_CYCLE_S), "1/s")
+    Range::new(
+        MIN_GAIN,
+        MAX_GAIN_PERIOD_PRODUCT / cycle_s.max(MIN_CYCLE_S),
+        "1/s",
+    )
 }
+
+/// Pause of the `pause` reaction before the automatic resume, s (the paper: 2 s; a minute is
+/// longer than anyone waits beside a stopped arm).
+pub const PAUSE_S: Range = Range::new(0.0, 60.0, "s");
 
 /// Applied or estimated payload mass, kg (the LWR 4+ is rated for 7 kg; 20 kg leaves room for
 /// short-term overload and a wrong but finite estimate to be applied deliberately).
@@ -249,7 +271,7 @@ mod tests {
         );
         assert_eq!(
             gain(0.001).check("gains[0]", 1e308).map_err(String::from),
-            Err("gains[0] = 1e308 1/s is outside 1…2000 1/s".to_owned())
+            Err("gains[0] = 1e308 1/s is outside 1…500 1/s".to_owned())
         );
         assert_eq!(
             POSES.check_count("poses", 1).map_err(String::from),
@@ -269,7 +291,10 @@ mod tests {
         );
         assert!(threshold(6).check("t", 9.5).is_ok());
         assert!(threshold(6).check("t", 9.51).is_err());
-        assert_eq!(gain(0.01).max, 200.0);
+        assert_eq!(gain(0.01).max, 50.0);
+        // The default gain is inside the 1 kHz range, 1e5 1/s (the value) is not.
+        assert!(gain(0.001).check("gains[0]", 400.0).is_ok());
+        assert!(gain(0.001).check("gains[0]", 1e5).is_err());
         assert_eq!(joint_position(1).to_string(), "-2.0944…2.0944 rad");
         assert_eq!(
             Range::new(0.01, 0.2000000002, "rad/s").to_string(),

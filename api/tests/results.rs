@@ -68,7 +68,9 @@ fn status_connected_and_disconnected() {
         "moving": false,
         "payload": json!({"mass": 1.5, "com": [0.0, 0.01, -0.02], "frame": "7"}),
         "tare_samples": 6,
-        "monitor": {"armed": true, "thresholds": ([6.0; 7]), "gains": ([400.0; 7])},
+        "monitor": {"armed": true, "thresholds": ([6.0; 7]), "gains": ([400.0; 7]),
+                    "reaction": "stop", "pause_s": 2.0, "persisted": false,
+                    "set_for_payload": null, "payload_changed": false},
         "state": {"kind": "commanding"},
     });
     let s: StatusResult = round_trip(connected.clone());
@@ -81,7 +83,9 @@ fn status_connected_and_disconnected() {
         "tau_ext": null, "residual": null,
         "command_mode": false, "stopped": false, "collision": false, "observer_fault": false,
         "moving": false, "payload": null, "tare_samples": null,
-        "monitor": {"armed": false, "thresholds": ([6.0; 7]), "gains": ([400.0; 7])},
+        "monitor": {"armed": false, "thresholds": ([6.0; 7]), "gains": ([400.0; 7]),
+                    "reaction": "stop", "pause_s": 2.0, "persisted": false,
+                    "set_for_payload": null, "payload_changed": false},
         "state": null,
     });
     // Held by a collision: the state names the cause and the controller's view.
@@ -112,9 +116,20 @@ fn sample_tare_and_payload_results() {
     );
     let cleared: PayloadResult = round_trip(json!({"payload": null}));
     assert!(cleared.payload.is_none());
-    round_trip::<CollisionResult>(
+    let m: CollisionResult = round_trip(json!({
+        "armed": true, "thresholds": [9.0, 9.0, 6.0, 6.0, 4.0, 2.0, 2.0], "gains": ([400.0; 7]),
+        "reaction": "pause", "pause_s": 1.5, "persisted": true,
+        "set_for_payload": {"mass": 3.028, "com": [0.0, 0.0, 0.119], "frame": "7"},
+        "payload_changed": true,
+    }));
+    assert_eq!(m.reaction, fri_api::protocol::ReactionMode::Pause);
+    // An older daemon's reply (no reaction or persistence fields) still decodes.
+    let old: CollisionResult = serde_json::from_value(
         json!({"armed": true, "thresholds": [6.0, 6.0, 6.0, 6.0, 6.0, 6.0, 5.0], "gains": ([400.0; 7])}),
-    );
+    )
+    .unwrap();
+    assert_eq!(old.reaction, fri_api::protocol::ReactionMode::Stop);
+    assert!(!old.persisted && !old.payload_changed);
 }
 
 #[test]

@@ -237,6 +237,8 @@ async fn the_daemons_results_decode_into_the_typed_results() {
         action: CollisionAction::Disarm,
         thresholds: None,
         gains: None,
+        reaction: None,
+        pause_s: None,
     };
     typed::<CollisionResult>(&mut c, disarm).await;
     let s: SampleResult = typed(
@@ -269,6 +271,8 @@ async fn the_daemons_results_decode_into_the_typed_results() {
                 action,
                 thresholds: None,
                 gains: None,
+                reaction: None,
+                pause_s: None,
             },
         )
         .await;
@@ -279,6 +283,8 @@ async fn the_daemons_results_decode_into_the_typed_results() {
             action: CollisionAction::Configure,
             thresholds: Some([8.0; 7]),
             gains: None,
+            reaction: None,
+            pause_s: None,
         },
     )
     .await;
@@ -307,5 +313,101 @@ async fn the_daemons_results_decode_into_the_typed_results() {
         .unwrap();
     assert!(s.connected);
     drop(driver.join());
+    h.stop().await.unwrap();
+}
+
+/// `fri-ctl collision configure`: one value or seven, out-of-range values refused naming the
+/// field and range (the service's check, printed by fri-ctl), settings kept across a restart.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn fri_ctl_collision_configure_checks_ranges_and_the_service_keeps_the_settings() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = || {
+        let mut c = local_config(dir.path(), "ctlmon");
+        c.iceoryx2.enabled = false;
+        c
+    };
+    let h = InProcess::start(config()).await.unwrap();
+    let socket = h.socket.clone();
+    let run = move |args: &[&str]| {
+        let args: Vec<String> = args.iter().map(|a| (*a).to_owned()).collect();
+        let socket = socket.clone();
+        tokio::task::spawn_blocking(move || {
+            std::process::Command::new(env!("CARGO_BIN_EXE_fri-ctl"))
+                .args(&args)
+                .arg("--socket")
+                .arg(&socket)
+                .output()
+                .unwrap()
+        })
+    };
+    let out = run(&["collision", "configure", "--gains", "1e5"])
+        .await
+        .unwrap();
+    assert!(!out.status.success(), "{out:?}");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("gains[0] = 100000 1/s is outside 1…500 1/s"),
+        "{stderr}"
+    );
+    let out = run(&["collision", "configure", "--thresholds", "6,6,6,6,6,6,30"])
+        .await
+        .unwrap();
+    assert!(!out.status.success(), "{out:?}");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("thresholds[6] = 30 Nm is outside 0.1…9.5 Nm"),
+        "{stderr}"
+    );
+    let out = run(&["collision", "configure", "--thresholds", "1,2"])
+        .await
+        .unwrap();
+    assert!(!out.status.success(), "{out:?}");
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("one value for every joint or 7"),
+        "{out:?}"
+    );
+    let out = run(&[
+        "collision",
+        "configure",
+        "--thresholds",
+        "4",
+        "--reaction",
+        "pause",
+        "--pause-s",
+        "1.5",
+        "--json",
+    ])
+    .await
+    .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let m: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(m["thresholds"], serde_json::json!(([4.0; 7])));
+    assert_eq!(m["reaction"], "pause");
+    h.stop().await.unwrap();
+
+    let h = InProcess::start(config()).await.unwrap();
+    let socket = h.socket.clone();
+    let out = tokio::task::spawn_blocking(move || {
+        std::process::Command::new(env!("CARGO_BIN_EXE_fri-ctl"))
+            .args(["collision", "show"])
+            .arg("--socket")
+            .arg(&socket)
+            .output()
+            .unwrap()
+    })
+    .await
+    .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("resumes 1.5 s after the release"), "{text}");
+    assert!(
+        text.contains("set by `collision configure` without a payload"),
+        "{text}"
+    );
+    let row = text
+        .lines()
+        .find(|l| l.starts_with("threshold"))
+        .unwrap_or_else(|| panic!("{text}"));
+    assert_eq!(row.matches("4.00").count(), 7, "{row}");
     h.stop().await.unwrap();
 }

@@ -1,4 +1,5 @@
-//! Persistent service state: applied payload, tare samples and calibration, each a JSON file in
+//! Persistent service state: applied payload, tare samples, calibration and the collision
+//! monitor's settings, each a JSON file in
 //! the state directory, written atomically so a crash or power cut leaves the old or the new file,
 //! never a torn one.
 //!
@@ -129,6 +130,26 @@ impl Tare {
     }
 }
 
+/// The collision monitor's settings set by `collision configure`, restored at the next start in
+/// place of the configuration file's `[observer]` thresholds and gains and `[reaction]`. Arming
+/// is not stored: a restarted service arms as its configuration says (default armed), so a
+/// reboot never leaves the arm unprotected without anyone asking for it.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct StoredMonitor {
+    /// Detection thresholds per joint, Nm.
+    pub thresholds: [f64; 7],
+    /// Observer gains K_I per joint, 1/s.
+    pub gains: [f64; 7],
+    /// Reaction to a detected contact.
+    pub reaction: fri_api::protocol::ReactionMode,
+    /// Pause of the `pause` reaction, s.
+    pub pause_s: f64,
+    /// The payload applied when the settings were configured (`null`: none): the thresholds
+    /// fit the residual's free-motion level with that payload compensated.
+    pub set_for_payload: Option<AppliedPayload>,
+}
+
 /// Directory holding the service's persistent state.
 #[derive(Debug, Clone)]
 pub struct StateStore {
@@ -138,6 +159,7 @@ pub struct StateStore {
 const PAYLOAD_FILE: &str = "payload.json";
 const TARE_FILE: &str = "tare.json";
 const CALIBRATION_FILE: &str = "calibration.json";
+const MONITOR_FILE: &str = "monitor.json";
 
 impl StateStore {
     /// Opens (and creates if missing) the state directory and removes temporary files that
@@ -186,6 +208,21 @@ impl StateStore {
         calibration: Option<&serde_json::Value>,
     ) -> Result<(), PersistError> {
         self.save(CALIBRATION_FILE, calibration)
+    }
+
+    /// Loads the collision monitor's stored settings; `None` when never configured.
+    pub fn load_monitor(&self) -> Result<Option<StoredMonitor>, PersistError> {
+        self.load(MONITOR_FILE)
+    }
+
+    /// Persists the collision monitor's settings (`None` returns to the configuration file's).
+    pub fn save_monitor(&self, monitor: Option<&StoredMonitor>) -> Result<(), PersistError> {
+        self.save(MONITOR_FILE, monitor)
+    }
+
+    /// Path of the monitor settings file (for messages).
+    pub fn monitor_path(&self) -> PathBuf {
+        self.dir.join(MONITOR_FILE)
     }
 
     fn load<T: DeserializeOwned>(&self, name: &str) -> Result<Option<T>, PersistError> {
@@ -243,7 +280,7 @@ fn remove_stale_temp_files(dir: &Path) -> Result<(), PersistError> {
 fn temp_file_pid(name: &str) -> Option<u32> {
     // The inverse of `temp_name`.
     let rest = name.strip_prefix('.')?;
-    [PAYLOAD_FILE, TARE_FILE, CALIBRATION_FILE]
+    [PAYLOAD_FILE, TARE_FILE, CALIBRATION_FILE, MONITOR_FILE]
         .iter()
         .find_map(|f| rest.strip_prefix(f)?.strip_prefix(".tmp."))
         .filter(|pid| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()))
@@ -304,6 +341,30 @@ mod tests {
         let cal = serde_json::json!({"delta": [1.0, 2.0]});
         store.save_calibration(Some(&cal)).unwrap();
         assert_eq!(store.load_calibration().unwrap(), Some(cal));
+    }
+
+    #[test]
+    fn monitor_settings_round_trip_with_their_payload() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = StateStore::open(dir.path()).unwrap();
+        assert_eq!(store.load_monitor().unwrap(), None);
+        let m = StoredMonitor {
+            thresholds: [9.0, 9.0, 6.0, 6.0, 4.0, 2.0, 2.0],
+            gains: [300.0; 7],
+            reaction: fri_api::protocol::ReactionMode::Pause,
+            pause_s: 1.5,
+            set_for_payload: Some(AppliedPayload {
+                mass: 3.028,
+                com: [0.0, 0.0, 0.119],
+            }),
+        };
+        store.save_monitor(Some(&m)).unwrap();
+        let reopened = StateStore::open(dir.path()).unwrap();
+        assert_eq!(reopened.load_monitor().unwrap(), Some(m));
+        let text = fs::read_to_string(reopened.monitor_path()).unwrap();
+        assert!(text.contains("\"reaction\": \"pause\""), "{text}");
+        reopened.save_monitor(None).unwrap();
+        assert_eq!(reopened.load_monitor().unwrap(), None);
     }
 
     #[test]

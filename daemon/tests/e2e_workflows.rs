@@ -244,6 +244,8 @@ async fn unbounded_pattern_centres_thresholds_and_gains_are_rejected_and_nothing
         action: CollisionAction::Configure,
         thresholds,
         gains,
+        reaction: None,
+        pause_s: None,
     };
     let cases = [
         (estimate([1e300; 7]), "around[0] = 1e300 rad is outside"),
@@ -371,6 +373,8 @@ async fn disarm_grasp_apply_arm_and_a_contact_stops_the_arm() {
             action: fri_api::protocol::CollisionAction::Disarm,
             thresholds: None,
             gains: None,
+            reaction: None,
+            pause_s: None,
         },
     )
     .await
@@ -402,6 +406,8 @@ async fn disarm_grasp_apply_arm_and_a_contact_stops_the_arm() {
             action: fri_api::protocol::CollisionAction::Arm,
             thresholds: None,
             gains: None,
+            reaction: None,
+            pause_s: None,
         },
     )
     .await

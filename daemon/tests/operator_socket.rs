@@ -211,6 +211,8 @@ async fn out_of_range_arguments_are_rejected_before_any_handler_runs() {
                 action: fri_api::protocol::CollisionAction::Configure,
                 thresholds: Some([1e300; 7]),
                 gains: None,
+                reaction: None,
+                pause_s: None,
             },
             "thresholds[0] = 1e300 Nm is outside 0.1…44 Nm",
         ),
@@ -219,8 +221,10 @@ async fn out_of_range_arguments_are_rejected_before_any_handler_runs() {
                 action: fri_api::protocol::CollisionAction::Configure,
                 thresholds: None,
                 gains: Some([1e308; 7]),
+                reaction: None,
+                pause_s: None,
             },
-            "gains[0] = 1e308 1/s is outside 1…2000 1/s",
+            "gains[0] = 1e308 1/s is outside 1…500 1/s",
         ),
     ];
     for (command, expected) in cases {

@@ -24,7 +24,7 @@ use serde::Serialize;
 use serde_json::{Value, json};
 use tokio::sync::watch;
 
-use super::plots::{self, Panel, Series};
+use super::plots::{self, Marker, Panel, Series, Threshold};
 use fri_api::client::Client;
 use fri_api::protocol::{CollisionAction, Command, RecordKind};
 use fri_service::config::{Config, ReactionMode};
@@ -386,6 +386,8 @@ async fn phases(
                 action: CollisionAction::Arm,
                 thresholds: None,
                 gains: None,
+                reaction: None,
+                pause_s: None,
             },
             |_, _| {},
         )
@@ -474,9 +476,11 @@ async fn phases(
     let fri_signal: Vec<V7> = rows.iter().map(|r| V7::from(r.tau_ext)).collect();
     let times: Vec<f64> = rows.iter().map(|r| r.time_s - t0).collect();
     let velocities: Vec<V7> = rows.iter().map(|r| V7::from(r.qd)).collect();
-    let on_c = onsets(&compensated, &velocities, &times)?;
-    let on_u = onsets(&uncompensated, &velocities, &times)?;
-    let on_f = onsets(&fri_signal, &velocities, &times)?;
+    // The service's thresholds, so the figure's dashed lines are the ones the evaluation used.
+    let thresholds = &config.observer.thresholds;
+    let on_c = onsets(&compensated, &velocities, &times, thresholds)?;
+    let on_u = onsets(&uncompensated, &velocities, &times, thresholds)?;
+    let on_f = onsets(&fri_signal, &velocities, &times, thresholds)?;
     let (det_c, fa_c) = classify(&on_c);
     let (det_u, fa_u) = classify(&on_u);
     let (det_f, fa_f) = classify(&on_f);
@@ -520,10 +524,21 @@ async fn phases(
     let fig5 = opts.out_dir.join("fig5-torque-validation.svg");
     let fig6 = opts.out_dir.join("fig6-residuals.svg");
     plot_fig5(&fig5, &model, &rows, &times, &estimate, cycle_s)?;
-    plot_fig6(&fig6, &times, &fri_signal, &uncompensated, &compensated)?;
+    plot_fig6(
+        &fig6,
+        &times,
+        thresholds,
+        &fri_signal,
+        &uncompensated,
+        &compensated,
+    )?;
     say(
         opts,
-        format!("      plots: {} and {}", fig5.display(), fig6.display()),
+        format!(
+            "      plots: {} and {} (each also as .png)",
+            fig5.display(),
+            fig6.display()
+        ),
     );
 
     Ok(DemoReport {
@@ -544,7 +559,12 @@ async fn phases(
         free_motion_peak_nm,
         contacts: CONTACTS_S.to_vec(),
         service_detections: online_rel,
-        plots: vec![fig5, fig6],
+        plots: vec![
+            fig5.with_extension("png"),
+            fig6.with_extension("png"),
+            fig5,
+            fig6,
+        ],
         log,
     })
 }
@@ -636,9 +656,14 @@ fn residuals(
         .collect())
 }
 
-fn onsets(signal: &[V7], velocities: &[V7], times: &[f64]) -> anyhow::Result<Vec<f64>> {
+fn onsets(
+    signal: &[V7],
+    velocities: &[V7],
+    times: &[f64],
+    thresholds: &[f64; 7],
+) -> anyhow::Result<Vec<f64>> {
     let mut detector = CollisionDetector::<7>::new(safety::DetectorConfig {
-        thresholds_nm: V7::repeat(THRESHOLD_NM),
+        thresholds_nm: V7::from(*thresholds),
         ..Default::default()
     })
     .map_err(|e| anyhow::anyhow!("{e}"))?;
@@ -707,68 +732,136 @@ fn plot_fig5(
     // 50 ms are the velocity filter settling, not a torque prediction, so they are not plotted.
     let settled = ((0.05 / cycle_s) as usize).min(rows.len()).min(times.len());
     let (rows, times, computed) = (&rows[settled..], &times[settled..], &computed[settled..]);
+    let markers = contact_markers();
     let panels: Vec<Panel> = [1usize, 3, 5]
         .iter()
         .map(|&j| Panel {
             title: format!(
-                "joint {}: measured τ_J (dashed) vs computed with the estimate (solid); contacts at 1, 8, 17 s",
+                "Joint {}: measured joint torque τ_J and τ_J computed with the estimated payload (RNEA)",
                 j + 1
             ),
-            y_label: "Nm".into(),
+            y_label: "τ_J [Nm]".into(),
+            // The computed torque first, the measured one (thinner) on top of it.
             series: vec![
+                Series {
+                    label: "computed (RNEA)".into(),
+                    points: decimate(times, computed.iter().map(|c| c[j])),
+                    color: 0,
+                    width: 2,
+                },
                 Series {
                     label: "measured".into(),
                     points: decimate(times, rows.iter().map(|r| r.tau[j])),
-                    color: 2,
-                    dashed: true,
-                },
-                Series {
-                    label: "computed".into(),
-                    points: decimate(times, computed.iter().map(|c| c[j])),
-                    color: 0,
-                    dashed: false,
+                    color: 1,
+                    width: 1,
                 },
             ],
-            hlines: Vec::new(),
+            thresholds: Vec::new(),
+            markers: markers.clone(),
+            marker_legend: Some(CONTACT_LEGEND.into()),
         })
         .collect();
-    plots::draw(path, &panels)
+    plots::draw(path, &panels).map(|_| ())
+}
+
+/// Legend entry of the contact markers.
+const CONTACT_LEGEND: &str = "contact onset C1–C3";
+
+/// The free-motion segment's contact onsets as labelled markers.
+fn contact_markers() -> Vec<Marker> {
+    CONTACTS_S
+        .iter()
+        .enumerate()
+        .map(|(i, t)| Marker {
+            t: *t,
+            label: format!("C{}", i + 1),
+        })
+        .collect()
+}
+
+/// The joint number as a Unicode subscript (joints 1..9).
+fn subscript(joint: usize) -> char {
+    char::from_u32(0x2080 + (joint % 10) as u32).unwrap_or(' ')
+}
+
+/// The thresholds as the figure draws them: joints with the same value share one neutral
+/// dashed pair ("θ = ±6 Nm", or "θ₆,₇ = ±2 Nm" when others differ), a joint alone on its value
+/// gets a pair in its own colour.
+fn threshold_lines(thresholds: &[f64; 7]) -> Vec<Threshold> {
+    let mut groups: Vec<(f64, Vec<usize>)> = Vec::new();
+    for (j, &t) in thresholds.iter().enumerate() {
+        match groups.iter_mut().find(|(v, _)| (*v - t).abs() < 1e-9) {
+            Some((_, joints)) => joints.push(j),
+            None => groups.push((t, vec![j])),
+        }
+    }
+    let every = groups.len() == 1;
+    groups
+        .into_iter()
+        .map(|(value, joints)| {
+            let who: String = if every {
+                String::new()
+            } else {
+                joints
+                    .iter()
+                    .map(|j| subscript(j + 1).to_string())
+                    .collect::<Vec<_>>()
+                    .join(",")
+            };
+            Threshold {
+                value,
+                label: format!("θ{who} = ±{} Nm", fri_api::bounds::number(value)),
+                color: (joints.len() == 1 && !every).then(|| joints[0]),
+            }
+        })
+        .collect()
 }
 
 fn plot_fig6(
     path: &Path,
     times: &[f64],
+    thresholds: &[f64; 7],
     fri: &[V7],
     uncompensated: &[V7],
     compensated: &[V7],
 ) -> anyhow::Result<()> {
-    let panel = |title: &str, sig: &[V7]| Panel {
+    let markers = contact_markers();
+    let panel = |title: &str, y_label: &str, sig: &[V7]| Panel {
         title: title.to_owned(),
-        y_label: "Nm".into(),
+        y_label: y_label.to_owned(),
         series: (0..7)
             .map(|j| Series {
                 label: format!("joint {}", j + 1),
                 points: decimate(times, sig.iter().map(|r| r[j])),
                 color: j,
-                dashed: false,
+                width: 1,
             })
             .collect(),
-        hlines: vec![THRESHOLD_NM, -THRESHOLD_NM],
+        thresholds: threshold_lines(thresholds),
+        markers: markers.clone(),
+        marker_legend: Some(CONTACT_LEGEND.into()),
     };
     plots::draw(
         path,
         &[
-            panel("controller estExtJntTrq (FRI), ±6 Nm", fri),
             panel(
-                "residual without payload (uncompensated), ±6 Nm",
+                "(a) Controller's external-torque estimate (FRI estExtJntTrq), payload not declared",
+                "τ_ext [Nm]",
+                fri,
+            ),
+            panel(
+                "(b) Momentum-observer residual without payload compensation",
+                "r [Nm]",
                 uncompensated,
             ),
             panel(
-                "residual with the estimated payload (eq. 48), ±6 Nm",
+                "(c) Residual with the estimated payload compensated (eq. 48)",
+                "r [Nm]",
                 compensated,
             ),
         ],
     )
+    .map(|_| ())
 }
 
 /// Renders the report for people.

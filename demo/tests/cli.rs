@@ -43,13 +43,53 @@ fn demo_in_lockstep_reports_the_estimate_and_the_three_contacts() {
     }
     assert_eq!(report["false_alarms_compensated"], 0);
     assert!(report["false_alarms_uncompensated"].as_u64().unwrap() >= 1);
-    for p in report["plots"].as_array().unwrap() {
-        let path = std::path::Path::new(p.as_str().unwrap());
-        let svg = std::fs::read_to_string(path).unwrap();
-        assert!(
-            svg.starts_with("<svg") || svg.contains("<svg"),
-            "{}",
-            path.display()
-        );
+    let plots: Vec<std::path::PathBuf> = report["plots"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p.as_str().unwrap().into())
+        .collect();
+    // Fig. 5 and Fig. 6, each as PNG and SVG.
+    assert_eq!(plots.len(), 4, "{report}");
+    for path in &plots {
+        let bytes = std::fs::read(path).unwrap();
+        match path.extension().and_then(|e| e.to_str()) {
+            Some("png") => assert!(
+                bytes.starts_with(b"\x89PNG\r\n\x1a\n") && bytes.len() > 10_000,
+                "{}",
+                path.display()
+            ),
+            Some("svg") => {
+                let svg = String::from_utf8(bytes).unwrap();
+                assert!(svg.contains("<svg"), "{}", path.display());
+                // Quantity symbols with units on the axes, dashed thresholds labelled, contacts.
+                assert!(svg.contains("t [s]"), "{}", path.display());
+                assert!(
+                    svg.contains("C1") && svg.contains("C3"),
+                    "{}",
+                    path.display()
+                );
+            }
+            other => panic!("unexpected plot {other:?}"),
+        }
     }
+    let fig6 = std::fs::read_to_string(
+        plots
+            .iter()
+            .find(|p| p.ends_with("fig6-residuals.svg"))
+            .unwrap(),
+    )
+    .unwrap();
+    assert!(
+        fig6.contains("r [Nm]") && fig6.contains("θ = ±6 Nm"),
+        "Fig. 6 labels"
+    );
+    let fig5 = std::fs::read_to_string(
+        plots
+            .iter()
+            .find(|p| p.ends_with("fig5-torque-validation.svg"))
+            .unwrap(),
+    )
+    .unwrap();
+    assert!(fig5.contains("τ_J"), "Fig. 5 labels");
 }

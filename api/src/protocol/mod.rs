@@ -79,6 +79,12 @@ pub enum Command {
         /// New per-joint observer gains, 1/s (with `configure`).
         #[serde(default)]
         gains: Option<[f64; 7]>,
+        /// New reaction to a detected contact (with `configure`).
+        #[serde(default)]
+        reaction: Option<ReactionMode>,
+        /// New pause of the `pause` reaction, s (with `configure`).
+        #[serde(default)]
+        pause_s: Option<f64>,
     },
     /// Stop: hold the current position and abort any running workflow.
     Stop,
@@ -134,8 +140,32 @@ pub enum CollisionAction {
     Arm,
     /// Disarm the monitor (residual still computed and published).
     Disarm,
-    /// Change thresholds and/or gains.
+    /// Change thresholds, gains and/or the reaction; the new settings are persisted.
     Configure,
+}
+
+/// What the service does on a detected collision (the config's `[reaction] policy` and
+/// `collision configure`'s `reaction`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ReactionMode {
+    /// Only report the event; the arm keeps moving.
+    Report,
+    /// Stop (hold position) and wait for the operator's `resume`.
+    Stop,
+    /// Stop, wait `pause_s` after the contact is released, then resume by itself (the paper).
+    Pause,
+}
+
+impl ReactionMode {
+    /// The name used in the protocol and the configuration (`report`, `stop`, `pause`).
+    pub fn name(self) -> &'static str {
+        match self {
+            ReactionMode::Report => "report",
+            ReactionMode::Stop => "stop",
+            ReactionMode::Pause => "pause",
+        }
+    }
 }
 
 /// What `record` writes.

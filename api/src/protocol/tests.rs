@@ -30,7 +30,9 @@ fn parses_commands_with_and_without_arguments() {
         Command::Collision {
             action: CollisionAction::Configure,
             thresholds: Some(t),
-            gains: None
+            gains: None,
+            reaction: None,
+            pause_s: None,
         } if t[6] == 5.0
     ));
 }
@@ -116,7 +118,7 @@ fn every_numeric_argument_out_of_range_is_rejected_naming_the_field_and_range() 
         ),
         (
             r#""cmd":"collision","action":"configure","gains":[400,400,400,400,400,400,1e308]"#,
-            "gains[6] = 1e308 1/s is outside 1…2000 1/s (joint 7)",
+            "gains[6] = 1e308 1/s is outside 1…500 1/s (joint 7)",
         ),
         (
             r#""cmd":"record","path":"/tmp/x","kind":"log","duration_s":1e9"#,

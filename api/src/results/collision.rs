@@ -2,8 +2,11 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::payload::AppliedPayload;
+use crate::protocol::ReactionMode;
+
 /// Collision-monitor settings (in `status` under `monitor`, and the result of `collision`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MonitorSettings {
     /// The reaction is enabled (a contact stops the arm).
     pub armed: bool,
@@ -11,6 +14,32 @@ pub struct MonitorSettings {
     pub thresholds: [f64; 7],
     /// Per-joint observer gains, 1/s.
     pub gains: [f64; 7],
+    /// What a detected contact does (absent from older daemons: `stop`).
+    #[serde(default = "default_reaction")]
+    pub reaction: ReactionMode,
+    /// Pause of the `pause` reaction before it resumes, s (absent from older daemons: 2).
+    #[serde(default = "default_pause_s")]
+    pub pause_s: f64,
+    /// The settings come from a `collision configure` stored in the state directory (false:
+    /// from the configuration file).
+    #[serde(default)]
+    pub persisted: bool,
+    /// The payload applied when the settings were configured (`null`: none, or from the
+    /// configuration file).
+    #[serde(default)]
+    pub set_for_payload: Option<AppliedPayload>,
+    /// The settings were configured for another payload than the one applied now: the
+    /// residual's free-motion level has changed, so the thresholds should be checked again.
+    #[serde(default)]
+    pub payload_changed: bool,
+}
+
+fn default_reaction() -> ReactionMode {
+    ReactionMode::Stop
+}
+
+fn default_pause_s() -> f64 {
+    2.0
 }
 
 /// Result of `collision` (every action): the settings now in force.

@@ -141,19 +141,7 @@ pub(super) fn print(r: &StatusResult, out: &mut dyn Write) -> io::Result<()> {
         Some(n) => writeln!(out, "tare           {n} samples stored")?,
         None => writeln!(out, "tare           none")?,
     }
-    let m = &r.monitor;
-    writeln!(
-        out,
-        "monitor        {}",
-        if m.armed {
-            "ARMED (a contact stops the arm)"
-        } else {
-            "disarmed (residual computed, no reaction)"
-        }
-    )?;
-    joint_header(out)?;
-    joint_row(out, "threshold", "Nm", &m.thresholds, 2)?;
-    joint_row(out, "gain", "1/s", &m.gains, 1)
+    super::collision::print_monitor(&r.monitor, out)
 }
 
 /// The session's rejected datagrams by reason, non-zero ones only, largest first.

@@ -120,9 +120,13 @@ impl Default for RobotConfig {
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct ObserverSettings {
-    /// Observer gains K_I per joint, 1/s (default `safety::DEFAULT_GAIN` = 400 on every joint).
+    /// Observer gains K_I per joint, 1/s (default `safety::DEFAULT_GAIN` = 400 on every joint);
+    /// one number sets every joint.
+    #[serde(deserialize_with = "per_joint::deserialize")]
     pub gains: [f64; JOINTS],
-    /// Detection thresholds per joint, Nm (default 6, as in the paper's Fig. 6).
+    /// Detection thresholds per joint, Nm (default 6, as in the paper's Fig. 6); one number
+    /// (the form of older files) sets every joint.
+    #[serde(deserialize_with = "per_joint::deserialize")]
     pub thresholds: [f64; JOINTS],
     /// Whether the collision monitor is armed at start (default true).
     pub armed: bool,
@@ -139,17 +143,9 @@ impl Default for ObserverSettings {
 }
 
 /// `[reaction] policy`: what the service does on a detected collision (mapped onto
-/// `safety::ReactionPolicy` by the service; `report` does not react).
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "kebab-case")]
-pub enum ReactionMode {
-    /// Only report the event.
-    Report,
-    /// Stop (hold position) and wait for the operator's `resume`.
-    Stop,
-    /// Stop, wait `pause_s`, then resume automatically (the paper: 2 s).
-    Pause,
-}
+/// `safety::ReactionPolicy` by the service; `report` does not react). The protocol's type, so
+/// `collision configure --reaction` and the file read the same names.
+pub use fri_api::protocol::ReactionMode;
 
 /// What the service does on a collision.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -332,6 +328,7 @@ impl Default for IpcConfig {
     }
 }
 
+mod per_joint;
 mod validate;
 
 pub use validate::MAX_ALLOWED_IDS;

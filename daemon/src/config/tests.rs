@@ -127,7 +127,7 @@ fn every_numeric_key_out_of_range_is_rejected_naming_the_key_and_range() {
         (
             format!("[observer]\ngains = {}\n", seven("1e308")),
             "observer.gains[0] (joint 1)",
-            "1e308 1/s is outside 1…2000 1/s",
+            "1e308 1/s is outside 1…500 1/s",
         ),
         (
             "[observer]\nthresholds = [6.0, 6.0, 6.0, 1e300, 6.0, 6.0, 6.0]\n".to_owned(),
@@ -233,14 +233,14 @@ fn every_numeric_key_out_of_range_is_rejected_naming_the_key_and_range() {
 
 #[test]
 fn ranges_follow_the_configured_cycle() {
-    // At 10 ms the gain limit is 200 1/s and the resync floor 0.1 s.
+    // At 10 ms the gain limit is 50 1/s and the resync floor 0.1 s.
     let (k, reason) = invalid(
         "[fri]\ncycle_s = 0.01\nmax_joint_step = 0.002\n[motion]\nmax_velocity = \
          [0.18, 0.18, 0.18, 0.18, 0.18, 0.18, 0.18]\n[observer]\ngains = \
-         [400.0, 100.0, 100.0, 100.0, 100.0, 100.0, 100.0]\n",
+         [400.0, 50.0, 50.0, 50.0, 50.0, 50.0, 50.0]\n",
     );
     assert_eq!(k, "observer.gains[0] (joint 1)");
-    assert!(reason.contains("1…200 1/s"), "{reason}");
+    assert!(reason.contains("1…50 1/s"), "{reason}");
     let (k, _) = invalid("[fri]\ncycle_s = 0.01\nmax_joint_step = 0.002\nresync_after_s = 0.05\n");
     assert_eq!(k, "fri.resync_after_s");
     let ok = Config::from_toml(
@@ -252,8 +252,30 @@ fn ranges_follow_the_configured_cycle() {
 
 #[test]
 fn wrong_length_array_is_a_parse_error() {
-    let err = Config::from_toml("[observer]\ngains = [1.0, 2.0]\n").unwrap_err();
-    assert!(matches!(err, ConfigError::Parse { .. }), "{err}");
+    for text in [
+        "[observer]\ngains = [1.0, 2.0]\n",
+        "[observer]\nthresholds = [6.0, 6.0, 6.0, 6.0, 6.0, 6.0, 6.0, 6.0]\n",
+        "[observer]\nthresholds = \"6\"\n",
+    ] {
+        let err = Config::from_toml(text).unwrap_err();
+        assert!(matches!(err, ConfigError::Parse { .. }), "{err}");
+        assert!(err.to_string().contains("7 numbers"), "{err}");
+    }
+}
+
+#[test]
+fn one_threshold_or_gain_sets_every_joint() {
+    let c = Config::from_toml("[observer]\nthresholds = 4.5\ngains = 300\n").unwrap();
+    assert_eq!(c.observer.thresholds, [4.5; 7]);
+    assert_eq!(c.observer.gains, [300.0; 7]);
+    let c = Config::from_toml("[observer]\nthresholds = [9, 9, 6, 6, 4, 2, 2]\n").unwrap();
+    assert_eq!(c.observer.thresholds, [9.0, 9.0, 6.0, 6.0, 4.0, 2.0, 2.0]);
+    // A single value is still range-checked on every joint: 12 Nm exceeds the wrist's 9.5 Nm.
+    let err = Config::from_toml("[observer]\nthresholds = 12\n").unwrap_err();
+    assert!(
+        err.to_string().contains("observer.thresholds[5] (joint 6)"),
+        "{err}"
+    );
 }
 
 #[test]

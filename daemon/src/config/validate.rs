@@ -68,7 +68,12 @@ impl Config {
         let o = &self.observer;
         for j in 0..JOINTS {
             in_range_at("observer.gains", j, o.gains[j], bounds::gain(cycle))
-                .map_err(|e| with_note(e, "the upper bound is 2 / fri.cycle_s"))?;
+                .map_err(|e| {
+                    with_note(
+                        e,
+                        "the upper bound is 0.5 / fri.cycle_s: K_I·T ≤ 0.5 keeps the sampled observer a filter",
+                    )
+                })?;
         }
         for j in 0..JOINTS {
             in_range_at(
@@ -84,11 +89,7 @@ impl Config {
                 )
             })?;
         }
-        in_range(
-            "reaction.pause_s",
-            self.reaction.pause_s,
-            Range::new(0.0, 60.0, "s"),
-        )?;
+        in_range("reaction.pause_s", self.reaction.pause_s, bounds::PAUSE_S)?;
         let m = &self.motion;
         for j in 0..JOINTS {
             // At most the joint's rated speed and the speed the set-point step limit allows.

@@ -17,7 +17,7 @@ use super::stream::Shared;
 use super::stream::Update;
 use crate::config::Config;
 use crate::ipc::IpcSender;
-use crate::persistence::{AppliedPayload, StateStore, Tare};
+use crate::persistence::{AppliedPayload, StateStore, StoredMonitor, Tare};
 use fri_api::cause::Cause;
 use fri_api::protocol::{ErrorCode, OperatorError};
 use tokio::sync::broadcast::error::RecvError;
@@ -41,13 +41,17 @@ pub(crate) const ARRIVAL_TIMEOUT_S: f64 = 2.0;
 pub type FriStateSource = Arc<dyn Fn() -> fri::state::EndpointState + Send + Sync>;
 
 /// Persistent, operator-visible state.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub(crate) struct Persistent {
     pub(crate) payload: Option<AppliedPayload>,
     pub(crate) tare: Option<Tare>,
     pub(crate) armed: bool,
     pub(crate) thresholds: [f64; 7],
     pub(crate) gains: [f64; 7],
+    pub(crate) reaction: fri_api::protocol::ReactionMode,
+    pub(crate) pause_s: f64,
+    /// The settings stored by `collision configure` (`None`: the configuration file's).
+    pub(crate) stored_monitor: Option<StoredMonitor>,
 }
 
 /// The service (see the module documentation).
@@ -73,13 +77,42 @@ pub(crate) fn err(code: ErrorCode, msg: impl Into<String>) -> OperatorError {
     OperatorError::new(code, msg)
 }
 
+/// Mass difference under which two payloads count as the same for the monitor's thresholds, as
+/// a share of the mass (2 %: about the estimate's own spread on the LWR, BENCHMARKS.md).
+const SAME_PAYLOAD_MASS_SHARE: f64 = 0.02;
+/// Smallest mass difference that counts, kg (an empty gripper's estimate scatters by grams).
+const SAME_PAYLOAD_MASS_FLOOR_KG: f64 = 0.01;
+/// Centre-of-mass difference under which two payloads count as the same, m.
+const SAME_PAYLOAD_COM_M: f64 = 0.005;
+
+/// Whether the monitor settings configured with payload `set_for` still fit the payload
+/// `applied` (none and none, or masses within 2 % and centres within 5 mm): a re-estimate of the
+/// same load does not ask for new thresholds, another load does.
+pub(crate) fn same_payload(
+    set_for: Option<&AppliedPayload>,
+    applied: Option<&AppliedPayload>,
+) -> bool {
+    match (set_for, applied) {
+        (None, None) => true,
+        (Some(a), Some(b)) => {
+            let mass_tolerance =
+                (SAME_PAYLOAD_MASS_SHARE * a.mass.max(b.mass)).max(SAME_PAYLOAD_MASS_FLOOR_KG);
+            let com_distance = Vector3::from(a.com) - Vector3::from(b.com);
+            (a.mass - b.mass).abs() <= mass_tolerance && com_distance.norm() <= SAME_PAYLOAD_COM_M
+        }
+        _ => false,
+    }
+}
+
 /// Converts an applied payload into the observer's gravity compensation (paper eq. 48).
 pub fn compensation(p: &AppliedPayload) -> PayloadCompensation {
     PayloadCompensation::gravity_from_com(p.mass, Vector3::from(p.com))
 }
 
 impl ServiceCore {
-    /// Assembles the service; `payload`/`tare` are what was reloaded from the state directory.
+    /// Assembles the service; `payload`/`tare`/`monitor` are what was reloaded from the state
+    /// directory (`config` already carries the reloaded monitor settings, see
+    /// [`crate::service::with_stored_monitor`]).
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         config: Config,
@@ -89,6 +122,7 @@ impl ServiceCore {
         store: StateStore,
         payload: Option<AppliedPayload>,
         tare: Option<Tare>,
+        monitor: Option<StoredMonitor>,
         ipc: Option<IpcSender>,
         fri_state: Option<FriStateSource>,
     ) -> Self {
@@ -98,6 +132,9 @@ impl ServiceCore {
             armed: config.observer.armed,
             thresholds: config.observer.thresholds,
             gains: config.observer.gains,
+            reaction: config.reaction.policy,
+            pause_s: config.reaction.pause_s,
+            stored_monitor: monitor,
         };
         Self {
             config,

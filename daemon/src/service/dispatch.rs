@@ -7,6 +7,7 @@ use serde::Serialize;
 use serde_json::Value;
 
 use super::core::ServiceCore;
+use super::workflow::collision::MonitorChange;
 use crate::operator::server::{EventSink, Handler};
 use crate::persistence::AppliedPayload;
 use fri_api::protocol::{Command, ErrorCode, OperatorError};
@@ -63,7 +64,17 @@ impl Handler for Dispatcher {
                 action,
                 thresholds,
                 gains,
-            } => reply(s.collision(action, thresholds, gains)),
+                reaction,
+                pause_s,
+            } => reply(s.collision(
+                action,
+                MonitorChange {
+                    thresholds,
+                    gains,
+                    reaction,
+                    pause_s,
+                },
+            )),
             Command::Stop => reply(s.stop()),
             Command::Resume => reply(s.resume()),
             Command::Record {

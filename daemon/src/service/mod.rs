@@ -33,7 +33,7 @@ use tokio::sync::watch;
 use crate::config::{Config, ReactionMode};
 use crate::ipc::{IpcNames, IpcThread};
 use crate::operator::server::{self, AccessPolicy, ServerLimits};
-use crate::persistence::StateStore;
+use crate::persistence::{StateStore, StoredMonitor};
 use core::{ServiceCore, compensation};
 use cycle::{CycleProcessor, CycleRequest, ProcessorSettings};
 use dispatch::Dispatcher;
@@ -64,6 +64,17 @@ pub fn build_monitor(
     CollisionMonitor::new(model, mc)
 }
 
+/// `config` with the monitor settings a `collision configure` stored in place of its own
+/// `[observer]` thresholds and gains and `[reaction]` (arming stays the configuration's).
+pub fn with_stored_monitor(config: &Config, m: &StoredMonitor) -> Config {
+    let mut c = config.clone();
+    c.observer.thresholds = m.thresholds;
+    c.observer.gains = m.gains;
+    c.reaction.policy = m.reaction;
+    c.reaction.pause_s = m.pause_s;
+    c
+}
+
 /// A running service: endpoint, fan-out and iceoryx2 threads, and the shared core.
 pub struct RunningService {
     /// The core shared with the operator handler.
@@ -90,6 +101,40 @@ impl RunningService {
             .load_payload()
             .context("reloading the applied payload")?;
         let tare = store.load_tare().context("reloading the tare")?;
+        let stored_monitor = store
+            .load_monitor()
+            .context("reloading the collision monitor's settings")?;
+        // The stored settings are checked against this configuration's ranges (the gain bound
+        // follows fri.cycle_s): a file that no longer fits stops the start rather than running
+        // with other settings than the operator set.
+        let config = match &stored_monitor {
+            Some(m) => {
+                let c = with_stored_monitor(&config, m);
+                c.validate().with_context(|| {
+                    format!(
+                        "the collision monitor's settings in {} (written by `collision \
+                         configure`; correct them there or remove the file to use the \
+                         configuration's)",
+                        store.monitor_path().display()
+                    )
+                })?;
+                tracing::info!(
+                    thresholds = ?m.thresholds,
+                    gains = ?m.gains,
+                    reaction = m.reaction.name(),
+                    "reloaded the collision monitor's settings"
+                );
+                if !core::same_payload(m.set_for_payload.as_ref(), payload.as_ref()) {
+                    tracing::warn!(
+                        set_for = ?m.set_for_payload,
+                        applied = ?payload,
+                        "the collision thresholds were set for another payload; check them"
+                    );
+                }
+                c
+            }
+            None => config,
+        };
         // Created (and checked) now so a bad `state.record_dir` stops the start, not a recording.
         crate::recordings::RecordDir::open(&config.state.record_dir())?;
 
@@ -138,6 +183,7 @@ impl RunningService {
             store,
             payload,
             tare,
+            stored_monitor,
             ipc,
             Some(Arc::new(move || {
                 source.upgrade().map(|e| e.latest()).unwrap_or_default()

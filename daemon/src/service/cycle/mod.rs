@@ -71,8 +71,14 @@ pub enum CycleRequest {
     SetPayload(Option<PayloadCompensation>),
     /// Arm (true) or disarm (false) the collision reaction.
     Arm(bool),
-    /// Replace the collision monitor (new thresholds or gains); the payload is carried over.
-    ReplaceMonitor(Box<CollisionMonitor<7>>),
+    /// Replace the collision monitor (new thresholds, gains or reaction); the payload and the
+    /// arming are carried over.
+    ReplaceMonitor {
+        /// The new monitor.
+        monitor: Box<CollisionMonitor<7>>,
+        /// Whether a collision reaction stops the arm (false: report only).
+        react: bool,
+    },
     /// The service shuts down: brake any move, forget pending ones, and leave command mode
     /// through the handshake once the arm is at rest (no hold is latched: nothing to resume).
     Shutdown,

@@ -63,11 +63,15 @@ impl CycleProcessor {
                     self.monitor.set_armed(on);
                     self.armed = on;
                 }
-                CycleRequest::ReplaceMonitor(mut m) => {
+                CycleRequest::ReplaceMonitor {
+                    monitor: mut m,
+                    react,
+                } => {
                     let _ =
                         m.set_payload(self.payload.clone().unwrap_or(PayloadCompensation::None));
                     m.set_armed(self.armed);
                     self.monitor = m;
+                    self.settings.react = react;
                 }
             }
         }

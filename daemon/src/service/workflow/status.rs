@@ -1,7 +1,7 @@
 //! `status`: the newest cycle, the controller's FRI view, the applied payload, the tare and
 //! the collision monitor's settings, read at once.
 
-use fri_api::results::{FriStatus, MonitorSettings, StatusResult};
+use fri_api::results::{FriStatus, StatusResult};
 
 use crate::persistence::AppliedPayload;
 
@@ -15,15 +15,9 @@ impl ServiceCore {
         let connected = newest.is_some_and(|(_, age)| age <= self.connection_timeout());
         let snapshot = newest.map(|(s, _)| s);
         let latest = snapshot.map(|s| s.robot);
-        let (payload, armed, thresholds, gains, tare) = self.persistent(|p| {
-            (
-                p.payload,
-                p.armed,
-                p.thresholds,
-                p.gains,
-                p.tare.as_ref().map(|t| t.samples.len()),
-            )
-        });
+        let (payload, tare) =
+            self.persistent(|p| (p.payload, p.tare.as_ref().map(|t| t.samples.len())));
+        let monitor = self.monitor_settings();
         let fri = self.fri_state.as_ref().map(|f| {
             let s = f();
             FriStatus {
@@ -57,11 +51,7 @@ impl ServiceCore {
             moving: snapshot.is_some_and(|s| s.moving()),
             payload: payload.map(|p| applied(&p)),
             tare_samples: tare,
-            monitor: MonitorSettings {
-                armed,
-                thresholds,
-                gains,
-            },
+            monitor,
         }
     }
 }

@@ -24,6 +24,8 @@ pub const POLL: Duration = Duration::from_micros(500);
 const RETRY: Duration = Duration::from_millis(200);
 
 /// One message from the service.
+// Passed by value to the sink once per message: boxing the state would allocate every cycle.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Input {
     /// A robot state (every cycle).

@@ -63,6 +63,10 @@ pub struct Config {
     pub state: StateConfig,
     /// iceoryx2 publication.
     pub iceoryx2: IpcConfig,
+    /// The ROS 2 bridge's table, read and validated by `fri-ros2` (docs/ros2.md); the service
+    /// only accepts it, so one file configures both.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ros2: Option<toml::Table>,
 }
 
 /// FRI UDP endpoint settings.

@@ -1,0 +1,174 @@
+//! The 1 Hz diagnostics: the service's `status` (FRI state, quality, the controller's answer
+//! statistics, monitor state) and the bridge's own counters, as one `DiagnosticArray`.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use fri_api::results::StatusResult;
+use fri_ros_msgs::builtin_interfaces::Time;
+use fri_ros_msgs::diagnostic_msgs::{
+    DiagnosticArray, DiagnosticStatus, ERROR, KeyValue, OK, STALE, WARN,
+};
+use fri_ros_msgs::std_msgs::Header;
+
+/// Hardware id of every status.
+pub const HARDWARE_ID: &str = "kuka_lwr4";
+
+/// The bridge's counters (shared by the input thread and the diagnostics).
+#[derive(Debug, Default)]
+pub struct Stats {
+    /// Robot states received over iceoryx2.
+    pub states: AtomicU64,
+    /// Joint-state messages published.
+    pub joint_states: AtomicU64,
+    /// Collision events published.
+    pub collisions: AtomicU64,
+    /// Cycle of the newest state.
+    pub last_cycle: AtomicU64,
+    /// Times the iceoryx2 subscriptions were (re)opened.
+    pub opened: AtomicU64,
+}
+
+/// The components' statuses; `status` is the service's answer (or why there is none).
+pub fn report(
+    prefix: &str,
+    status: &Result<StatusResult, String>,
+    stats: &Stats,
+) -> DiagnosticArray {
+    let name = |c: &str| format!("{prefix}: {c}");
+    let mut out = Vec::new();
+    match status {
+        Ok(s) => {
+            out.push(fri_status(name("FRI"), s));
+            out.push(monitor_status(name("collision monitor"), s));
+        }
+        Err(e) => out.push(DiagnosticStatus {
+            level: ERROR,
+            name: name("service"),
+            message: format!("no status from the service: {e}"),
+            hardware_id: HARDWARE_ID.into(),
+            values: Vec::new(),
+        }),
+    }
+    let load = |a: &AtomicU64| a.load(Ordering::Relaxed);
+    out.push(DiagnosticStatus {
+        level: OK,
+        name: name("ROS 2 bridge"),
+        message: "running".into(),
+        hardware_id: HARDWARE_ID.into(),
+        values: vec![
+            KeyValue::new("states received", load(&stats.states)),
+            KeyValue::new("joint states published", load(&stats.joint_states)),
+            KeyValue::new("collisions published", load(&stats.collisions)),
+            KeyValue::new("last cycle", load(&stats.last_cycle)),
+            KeyValue::new("iceoryx2 (re)opened", load(&stats.opened)),
+        ],
+    });
+    let time_s = status.as_ref().ok().and_then(|s| s.time_s).unwrap_or(0.0);
+    DiagnosticArray {
+        header: Header {
+            stamp: Time::from_seconds(time_s),
+            frame_id: String::new(),
+        },
+        status: out,
+    }
+}
+
+fn fri_status(name: String, s: &StatusResult) -> DiagnosticStatus {
+    let Some(f) = &s.fri else {
+        return DiagnosticStatus {
+            level: STALE,
+            name,
+            message: "no FRI endpoint snapshot".into(),
+            hardware_id: HARDWARE_ID.into(),
+            values: Vec::new(),
+        };
+    };
+    let (level, message) = if !s.connected {
+        (ERROR, "controller not connected".to_owned())
+    } else {
+        match f.quality.as_str() {
+            "Perfect" | "Ok" => (OK, format!("{} mode, quality {}", f.state, f.quality)),
+            "Bad" => (WARN, format!("{} mode, quality {}", f.state, f.quality)),
+            _ => (ERROR, format!("{} mode, quality {}", f.state, f.quality)),
+        }
+    };
+    let c = &f.controller_statistics;
+    DiagnosticStatus {
+        level,
+        name,
+        message,
+        hardware_id: HARDWARE_ID.into(),
+        values: vec![
+            KeyValue::new("state", &f.state),
+            KeyValue::new("quality", &f.quality),
+            KeyValue::new("KRL status", &f.krl_status),
+            KeyValue::new("drop reason", &f.drop_reason),
+            KeyValue::new("answer rate", c.answer_rate),
+            KeyValue::new("latency (s)", c.latency),
+            KeyValue::new("jitter (s)", c.jitter),
+            KeyValue::new("miss rate", c.miss_rate),
+            KeyValue::new("misses", c.miss_counter),
+            KeyValue::new("cycles", f.cycles),
+            KeyValue::new("controller time (s)", s.time_s.unwrap_or(f64::NAN)),
+        ],
+    }
+}
+
+fn monitor_status(name: String, s: &StatusResult) -> DiagnosticStatus {
+    let (level, message) = if s.observer_fault {
+        (ERROR, "observer fault".to_owned())
+    } else if s.collision {
+        (WARN, "collision reaction active".to_owned())
+    } else if s.stopped {
+        (WARN, "arm held".to_owned())
+    } else if !s.monitor.armed {
+        (WARN, "disarmed".to_owned())
+    } else if !s.residual_valid {
+        (OK, "armed, warming up".to_owned())
+    } else {
+        (OK, "armed".to_owned())
+    };
+    let state = s
+        .state
+        .as_ref()
+        .and_then(|st| serde_json::to_string(st).ok())
+        .unwrap_or_else(|| "unknown".into());
+    DiagnosticStatus {
+        level,
+        name,
+        message,
+        hardware_id: HARDWARE_ID.into(),
+        values: vec![
+            KeyValue::new("armed", s.monitor.armed),
+            KeyValue::new("residual valid", s.residual_valid),
+            KeyValue::new("stopped", s.stopped),
+            KeyValue::new("collision", s.collision),
+            KeyValue::new("service state", state),
+            KeyValue::new(
+                "payload mass (kg)",
+                s.payload.as_ref().map_or(0.0, |p| p.mass),
+            ),
+            KeyValue::new(
+                "tare samples",
+                s.tare_samples.map_or("none".to_owned(), |n| n.to_string()),
+            ),
+        ],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_unreachable_service_is_an_error_status_next_to_the_bridge_counters() {
+        let stats = Stats::default();
+        stats.states.store(5, Ordering::Relaxed);
+        let a = report("lwr", &Err("connection refused".into()), &stats);
+        assert_eq!(a.status.len(), 2);
+        assert_eq!(a.status[0].level, ERROR);
+        assert!(a.status[0].message.contains("connection refused"));
+        assert_eq!(a.status[1].name, "lwr: ROS 2 bridge");
+        assert_eq!(a.status[1].values[0], KeyValue::new("states received", 5));
+    }
+}

@@ -1,0 +1,53 @@
+//! `fri-ros2 --config FILE.toml`: the FRI service's ROS 2 bridge (see `docs/ros2.md`).
+
+use std::path::PathBuf;
+
+use anyhow::Context as _;
+use clap::Parser;
+
+/// The FRI service's ROS 2 bridge: publishes the robot's state and events over DDS and serves
+/// its commands as ROS 2 services, with no ROS installation.
+#[derive(Debug, Parser)]
+#[command(version)]
+struct Args {
+    /// The service's configuration file, with the bridge's `[ros2]` table (docs/ros2.md).
+    #[arg(long, env = "FRI_ROS2_CONFIG")]
+    config: PathBuf,
+}
+
+fn main() -> anyhow::Result<()> {
+    let args = Args::parse();
+    fri_service::init_logging("info");
+    let config = fri_ros2::BridgeConfig::load(&args.config)
+        .with_context(|| format!("loading {}", args.config.display()))?;
+    tracing::info!(
+        namespace = %config.ros2.namespace,
+        domain = config.ros2.domain_id,
+        joint_states_hz = config.ros2.joint_states_hz,
+        socket = %config.service.operator.socket.display(),
+        "starting the ROS 2 bridge"
+    );
+    let runtime = fri_service::runtime().context("starting the tokio runtime")?;
+    runtime.block_on(async {
+        fri_ros2::run(config, shutdown_signal()).await?;
+        tracing::info!("stopped");
+        anyhow::Ok(())
+    })
+}
+
+/// Completes on SIGINT or SIGTERM (a failure to install the handler ends the bridge at once).
+async fn shutdown_signal() {
+    use tokio::signal::unix::{SignalKind, signal};
+    match (
+        signal(SignalKind::interrupt()),
+        signal(SignalKind::terminate()),
+    ) {
+        (Ok(mut int), Ok(mut term)) => {
+            tokio::select! {
+                _ = int.recv() => {}
+                _ = term.recv() => {}
+            }
+        }
+        (Err(e), _) | (_, Err(e)) => tracing::error!("cannot install signal handlers: {e}"),
+    }
+}

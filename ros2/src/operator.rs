@@ -1,0 +1,150 @@
+//! Commands to the service over its operator socket (`fri_api::client`, typed results), one
+//! connection per command so a restarted service is simply reached again.
+
+use std::path::PathBuf;
+
+use fri_api::client::Client;
+use fri_api::protocol::{CollisionAction, Command};
+use fri_api::results::{
+    CollisionResult, EstimateResult, Event, PayloadResult, ResumeResult, StatusResult, StopResult,
+    TareResult,
+};
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+
+use crate::srv::TriggerResponse;
+
+/// The commands behind the bridge's ROS services.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Trigger {
+    /// `tare` with the configured pattern.
+    Tare,
+    /// `estimate-payload` with the configured pattern, applying the estimate.
+    EstimatePayload,
+    /// `stop`.
+    Stop,
+    /// `resume`.
+    Resume,
+}
+
+impl Trigger {
+    /// The ROS service name (in the bridge's namespace).
+    pub fn service_name(self) -> &'static str {
+        match self {
+            Self::Tare => "tare",
+            Self::EstimatePayload => "estimate_payload",
+            Self::Stop => "stop",
+            Self::Resume => "resume",
+        }
+    }
+}
+
+/// The service's operator socket.
+#[derive(Debug, Clone)]
+pub struct Operator {
+    socket: PathBuf,
+}
+
+impl Operator {
+    /// Commands go to `socket`.
+    pub fn new(socket: PathBuf) -> Self {
+        Self { socket }
+    }
+
+    /// Sends `command` and returns its typed result, or the error as text (connection,
+    /// protocol or the service's refusal with its code).
+    pub async fn call<R: DeserializeOwned>(
+        &self,
+        command: Command,
+        mut on_event: impl FnMut(&Event),
+    ) -> Result<R, String> {
+        let mut client = Client::connect(&self.socket)
+            .await
+            .map_err(|e| format!("service at {}: {e}", self.socket.display()))?;
+        match client
+            .call_typed::<R>(command, |e| {
+                if let Ok(e) = e {
+                    on_event(&e);
+                }
+            })
+            .await
+        {
+            Ok(Ok(r)) => Ok(r),
+            Ok(Err(e)) => Err(format!("{}: {}", code_name(e.code), e.message)),
+            Err(e) => Err(e.to_string()),
+        }
+    }
+
+    /// `status`.
+    pub async fn status(&self) -> Result<StatusResult, String> {
+        self.call(Command::Status, |_| {}).await
+    }
+
+    /// Runs `trigger`; the response carries the result as JSON or the error.
+    pub async fn trigger(&self, trigger: Trigger, on_event: impl FnMut(&Event)) -> TriggerResponse {
+        match trigger {
+            Trigger::Tare => {
+                let cmd = Command::Tare {
+                    around: None,
+                    poses: None,
+                    step_deg: None,
+                    pattern: None,
+                };
+                respond(self.call::<TareResult>(cmd, on_event).await)
+            }
+            Trigger::EstimatePayload => {
+                let cmd = Command::EstimatePayload {
+                    around: None,
+                    poses: None,
+                    step_deg: None,
+                    pattern: None,
+                    use_tare: None,
+                    apply: Some(true),
+                };
+                respond(self.call::<EstimateResult>(cmd, on_event).await)
+            }
+            Trigger::Stop => respond(self.call::<StopResult>(Command::Stop, on_event).await),
+            Trigger::Resume => respond(self.call::<ResumeResult>(Command::Resume, on_event).await),
+        }
+    }
+
+    /// Arms (`true`) or disarms the collision monitor.
+    pub async fn collision_arm(&self, arm: bool) -> TriggerResponse {
+        let cmd = Command::Collision {
+            action: if arm {
+                CollisionAction::Arm
+            } else {
+                CollisionAction::Disarm
+            },
+            thresholds: None,
+            gains: None,
+        };
+        respond(self.call::<CollisionResult>(cmd, |_| {}).await)
+    }
+
+    /// Applies a payload of `mass` kg at `com` (m, frame 7).
+    pub async fn apply_payload(&self, mass: f64, com: [f64; 3]) -> Result<PayloadResult, String> {
+        self.call(Command::ApplyPayload { mass, com }, |_| {}).await
+    }
+}
+
+fn respond<R: Serialize>(result: Result<R, String>) -> TriggerResponse {
+    match result {
+        Ok(r) => TriggerResponse {
+            success: true,
+            message: serde_json::to_string(&r).unwrap_or_else(|e| format!("(result: {e})")),
+        },
+        Err(message) => TriggerResponse {
+            success: false,
+            message,
+        },
+    }
+}
+
+/// The protocol's name of an error code (`not-connected`, ...).
+fn code_name(code: fri_api::protocol::ErrorCode) -> String {
+    match serde_json::to_value(code) {
+        Ok(serde_json::Value::String(s)) => s,
+        _ => format!("{code:?}"),
+    }
+}

@@ -1,0 +1,145 @@
+//! What the bridge's tests share: the service in-process against the mock robot, the bridge on
+//! loopback, the Python DDS peers' virtual environment.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs, dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::Mutex;
+use std::time::Duration;
+
+use fri_api::client::Client;
+use fri_ros2::BridgeConfig;
+use fri_ros2::config::Ros2Config;
+use fri_service::config::Config;
+use fri_service::testkit::{InProcess, local_config};
+use mock_robot::{MockRobotHandle, ServerConfig, SimulationConfig, TimingMode};
+use tokio::sync::oneshot;
+
+/// The workspace root.
+pub fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_owned()
+}
+
+static VENV: Mutex<()> = Mutex::new(());
+
+/// The Python of the peers' virtual environment (`target/python-peers`), created with
+/// `tools/python_peers.sh` when it is missing (a fresh checkout), so `cargo test` needs only
+/// `python3` on the machine.
+pub fn peers_python() -> PathBuf {
+    let _one_at_a_time = VENV.lock().unwrap_or_else(|e| e.into_inner());
+    let root = workspace();
+    let venv = root.join("target").join("python-peers");
+    let python = venv.join("bin").join("python");
+    let ready = python.exists()
+        && Command::new(&python)
+            .args(["-c", "import cyclonedds"])
+            .status()
+            .is_ok_and(|s| s.success());
+    if !ready {
+        let status = Command::new("bash")
+            .arg(root.join("tools").join("python_peers.sh"))
+            .arg(&venv)
+            .status()
+            .expect("running tools/python_peers.sh (needs bash and python3)");
+        assert!(status.success(), "tools/python_peers.sh failed: {status}");
+    }
+    python
+}
+
+/// Loopback carries multicast only with the flag set (DDS discovery); as root the tests set it.
+pub fn loopback_multicast() {
+    let on = std::fs::read_to_string("/sys/class/net/lo/flags")
+        .ok()
+        .and_then(|f| u32::from_str_radix(f.trim().trim_start_matches("0x"), 16).ok())
+        .is_some_and(|f| f & 0x1000 != 0); // IFF_MULTICAST
+    if !on {
+        let s = Command::new("ip")
+            .args(["link", "set", "lo", "multicast", "on"])
+            .status();
+        eprintln!("ip link set lo multicast on: {s:?}");
+    }
+}
+
+/// A DDS domain of this test process alone (tests in one process use different `index`es).
+pub fn domain(index: u16) -> u16 {
+    let pid = u16::try_from(std::process::id() % 50).unwrap();
+    100 + pid * 2 + index
+}
+
+/// The service in-process on loopback with the e2e tests' faster motion limits.
+pub fn service_config(dir: &Path, name: &str) -> Config {
+    let mut c = local_config(dir, name);
+    c.fri.max_joint_step = 1.0e-3;
+    c.motion.max_velocity = [0.9; 7];
+    c.motion.max_acceleration = [5.0; 7];
+    c.motion.max_jerk = [100.0; 7];
+    c
+}
+
+/// The mock robot in real time (1 ms cycles, as a KRC), optionally writing its truth log.
+pub fn robot(
+    sim: SimulationConfig,
+    fri: std::net::SocketAddr,
+    truth: Option<PathBuf>,
+) -> MockRobotHandle {
+    let mut server = ServerConfig::loopback(fri, TimingMode::RealTime);
+    server.truth_log = truth;
+    mock_robot::spawn_new(sim, server).unwrap()
+}
+
+/// The bridge on loopback in `domain`, stopped by sending on the returned channel.
+pub struct Bridge {
+    stop: Option<oneshot::Sender<()>>,
+    task: tokio::task::JoinHandle<Result<(), fri_ros2::BridgeError>>,
+}
+
+impl Bridge {
+    pub fn start(service: Config, domain_id: u16, joint_states_hz: u32) -> Self {
+        let ros2 = Ros2Config {
+            domain_id,
+            joint_states_hz,
+            interface: Some("lo".into()),
+            ..Ros2Config::default()
+        };
+        let config = BridgeConfig::new(service, ros2).unwrap();
+        let (stop, rx) = oneshot::channel();
+        let task = tokio::spawn(fri_ros2::run(config, async {
+            let _ = rx.await;
+        }));
+        Self {
+            stop: Some(stop),
+            task,
+        }
+    }
+
+    pub async fn stop(mut self) {
+        if let Some(s) = self.stop.take() {
+            let _ = s.send(());
+        }
+        tokio::time::timeout(Duration::from_secs(10), self.task)
+            .await
+            .expect("the bridge did not stop")
+            .unwrap()
+            .unwrap();
+    }
+}
+
+/// Waits until the service sees the controller.
+pub async fn wait_connected(service: &InProcess) -> Client {
+    let mut c = service.client().await.unwrap();
+    for _ in 0..1000 {
+        let s = c
+            .call(fri_api::protocol::Command::Status, |_, _| {})
+            .await
+            .unwrap()
+            .unwrap();
+        if s["connected"].as_bool() == Some(true) {
+            return c;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    panic!("the service never saw the controller");
+}

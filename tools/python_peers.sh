@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# Creates the virtual environment of the Python DDS peers the ROS 2 bridge's tests run
+# (target/python-peers, from tools/python-peers.txt). The tests create it themselves when it is
+# missing; .ci/run calls this first so the download happens outside the test timeouts.
+# Usage: tools/python_peers.sh [VENV_DIR]
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+venv="${1:-$root/target/python-peers}"
+if [ ! -x "$venv/bin/python" ]; then
+    python3 -m venv "$venv"
+fi
+"$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$root/tools/python-peers.txt"
+"$venv/bin/python" -c 'import cyclonedds, importlib.metadata as m; print("cyclonedds", m.version("cyclonedds"))'

@@ -44,6 +44,23 @@ fn args() -> anyhow::Result<Args> {
     Ok(a)
 }
 
+/// Runs `command`, retrying while the (new) controller session is not bound yet.
+async fn until_connected<R: serde::de::DeserializeOwned>(
+    client: &mut fri_api::client::Client,
+    command: Command,
+) -> anyhow::Result<R> {
+    for _ in 0..200 {
+        match client.call_typed::<R>(command.clone(), |_| {}).await? {
+            Ok(r) => return Ok(r),
+            Err(e) if e.message.contains("no measurement") || e.message.contains("not ready") => {
+                tokio::time::sleep(Duration::from_millis(50)).await;
+            }
+            Err(e) => bail!("{}", e.message),
+        }
+    }
+    bail!("the service never saw the controller")
+}
+
 struct Outcome {
     mass_err: f64,
     mass_z: f64,
@@ -55,7 +72,11 @@ struct Outcome {
 
 async fn one(seed: u64, a: &Args) -> anyhow::Result<Outcome> {
     let dir = tempfile::tempdir()?;
-    let service = InProcess::start(local_config(dir.path(), &format!("seeds{seed}"))).await?;
+    let mut config = local_config(dir.path(), &format!("seeds{seed}"));
+    // An unknown payload trips the armed monitor when picked (the paper's point): the
+    // estimate runs disarmed, as docs/operator-protocol.md tells the operator.
+    config.observer.armed = false;
+    let service = InProcess::start(config).await?;
     let mode = TimingMode::Lockstep {
         answer_timeout: Duration::from_millis(500),
     };
@@ -73,10 +94,7 @@ async fn one(seed: u64, a: &Args) -> anyhow::Result<Outcome> {
         step_deg: None,
         pattern: None,
     };
-    let tare: TareResult = client
-        .call_typed(tare, |_, _| {})
-        .await?
-        .map_err(|e| anyhow::anyhow!("tare: {}", e.message))?;
+    let tare: TareResult = until_connected(&mut client, tare).await.context("tare")?;
     // The operator attaches the payload: the same robot carries on after `gap_s` of robot time.
     let (mut sim, _) = robot.join().map_err(|e| anyhow::anyhow!("{e}"))?;
     for _ in 0..(a.gap_s / sim.cycle_s()).round() as u64 {
@@ -92,24 +110,9 @@ async fn one(seed: u64, a: &Args) -> anyhow::Result<Outcome> {
         use_tare: None,
         apply: Some(false),
     };
-    let mut estimate_result = None;
-    for _ in 0..100 {
-        // the new controller session must be bound first
-        match client
-            .call_typed::<EstimateResult>(estimate.clone(), |_, _| {})
-            .await?
-        {
-            Ok(r) => {
-                estimate_result = Some(r);
-                break;
-            }
-            Err(e) if e.message.contains("not ready") || e.message.contains("no measurement") => {
-                tokio::time::sleep(Duration::from_millis(50)).await;
-            }
-            Err(e) => bail!("estimate: {}", e.message),
-        }
-    }
-    let e = estimate_result.context("the service never saw the second controller session")?;
+    let e: EstimateResult = until_connected(&mut client, estimate)
+        .await
+        .context("estimate")?;
     let (sim, _) = robot.join().map_err(|e| anyhow::anyhow!("{e}"))?;
     let truth = *sim.true_payload().context("no payload truth")?;
     let com = truth.com().context("no CoM truth")?;

@@ -118,6 +118,8 @@ impl Operator {
             },
             thresholds: None,
             gains: None,
+            reaction: None,
+            pause_s: None,
         };
         respond(self.call::<CollisionResult>(cmd, |_| {}).await)
     }

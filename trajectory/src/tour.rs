@@ -85,12 +85,12 @@ fn exact(n: usize, c: &[Vec<f64>], out: &[f64], back: &dyn Fn(usize, usize) -> f
                 if !here.is_finite() {
                     continue;
                 }
-                for next in 0..n {
+                for (next, step) in c[last].iter().enumerate() {
                     if set & (1 << next) != 0 {
                         continue;
                     }
                     let key = (set | 1 << next) * n + next;
-                    let t = here + c[last][next];
+                    let t = here + step;
                     if t < dp[key] {
                         dp[key] = t;
                         from[key] = last;

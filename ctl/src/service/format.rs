@@ -94,6 +94,18 @@ pub(crate) fn ms(s: f64, digits: usize) -> String {
     format!("{} ms", fixed(s * 1000.0, digits))
 }
 
+/// A procedure's robot time by phase, one line: `robot time 14.2 s (moving 9.1, settling 0.9,
+/// averaging 5.5)`.
+pub(crate) fn timing_line(t: &fri_api::results::ProcedureTiming) -> String {
+    format!(
+        "robot time     {} s (moving {}, settling {}, averaging {})",
+        fixed(t.total_s, 1),
+        fixed(t.moving_s, 1),
+        fixed(t.settling_s, 1),
+        fixed(t.averaging_s, 1)
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -108,16 +120,4 @@ mod tests {
             "x +1.00  y -2.00  z +119.00"
         );
     }
-}
-
-/// A procedure's robot time by phase, one line: `robot time 14.2 s (moving 9.1, settling 0.9,
-/// averaging 5.5)`.
-pub(crate) fn timing_line(t: &fri_api::results::ProcedureTiming) -> String {
-    format!(
-        "robot time     {} s (moving {}, settling {}, averaging {})",
-        fixed(t.total_s, 1),
-        fixed(t.moving_s, 1),
-        fixed(t.settling_s, 1),
-        fixed(t.averaging_s, 1)
-    )
 }

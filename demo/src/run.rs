@@ -374,6 +374,36 @@ async fn phases(
             PAPER_COM[0], PAPER_COM[1], PAPER_COM[2]
         ),
     );
+    // What the service's σ is made of, and where the procedure's robot time went.
+    if let Some(sources) = est["uncertainty"]["sources"].as_array() {
+        let parts: Vec<String> = sources
+            .iter()
+            .map(|p| {
+                format!(
+                    "{} {:.2} g",
+                    p["source"].as_str().unwrap_or("?"),
+                    f(&p["mass_std"]) * 1e3
+                )
+            })
+            .collect();
+        say(
+            opts,
+            format!("      mass 1σ by source: {}", parts.join(", ")),
+        );
+    }
+    let t = &est["timing"];
+    if t.is_object() {
+        say(
+            opts,
+            format!(
+                "      estimate robot time {:.1} s: moving {:.1}, settling {:.1}, averaging {:.1}",
+                f(&t["total_s"]),
+                f(&t["moving_s"]),
+                f(&t["settling_s"]),
+                f(&t["averaging_s"])
+            ),
+        );
+    }
 
     // 3. Free motion with contacts.
     say(

@@ -56,7 +56,7 @@ fn bad_values_name_their_key_and_range() {
     assert!(r.contains("1..=1000"), "{r}");
     // At a 2 ms controller cycle 1 kHz is faster than the controller.
     let (k, _) = invalid_key(
-        "[fri]\ncycle_s = 0.002\nmax_joint_step = 0.0005\n[ros2]\njoint_states_hz = 1000\n",
+        "[fri]\ncycle_s = 0.002\nmax_joint_step = 0.0005\n[observer]\ngains = 200.0\n[ros2]\njoint_states_hz = 1000\n",
     );
     assert_eq!(k, "ros2.joint_states_hz");
     let (k, r) = invalid_key("[ros2]\ndiagnostics_hz = 0.0\n");

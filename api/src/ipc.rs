@@ -31,6 +31,9 @@ pub mod flags {
     /// The service wants command mode (a move is pending or running): with [`COMMAND_MODE`]
     /// clear, the controller has not entered it yet.
     pub const COMMAND_REQUESTED: u32 = 1 << 8;
+    /// A `resume` arrived while a contact was still detected: the arm stays held (with
+    /// [`STOPPED`]) and is released when the contact ends.
+    pub const RESUME_PENDING: u32 = 1 << 9;
 }
 
 /// Robot state, published once per FRI cycle on `<prefix>/state`.

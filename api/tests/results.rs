@@ -177,7 +177,10 @@ fn stop_resume_record_watch_results() {
         "note": "the controller is silent: …; nothing is commanded while the controller is silent, and the stop holds the arm when it returns",
     }));
     assert!(s.note.is_some());
-    round_trip::<ResumeResult>(json!({"stopped": false}));
+    round_trip::<ResumeResult>(json!({"stopped": false, "waiting_for_release": false}));
+    round_trip::<ResumeResult>(
+        json!({"stopped": true, "waiting_for_release": true, "note": "the contact is still detected"}),
+    );
     round_trip::<RecordResult>(json!({"rows": 3, "path": "/var/lib/fri/rec/s.csv"}));
     let r: RecordResult = round_trip(json!({"rows": 50, "path": "/rec/l.csv", "lost": 0}));
     assert_eq!(r.lost, Some(0));

@@ -226,3 +226,66 @@ async fn no_residual_from_an_unsynchronised_observer_is_published() {
     drop(events);
     h.stop().await;
 }
+
+/// A resume while the contact that stopped the arm is still detected (here: an undeclared 3 kg
+/// payload, which the armed monitor sees as a contact on the forearm) is not reported as a
+/// release: the reply says the arm is still held and waits for the release, and `status`
+/// agrees. Clearing the cause (declaring the payload) then releases the arm.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_resume_into_a_present_contact_says_the_arm_is_still_held() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = armed_to_stop(test_config(dir.path()));
+    let h = Harness::start(config, dir).await;
+    let driver =
+        mock_robot::spawn_new(sim(true, 11), ServerConfig::loopback(h.fri, lockstep())).unwrap();
+    let mut c = h.client().await;
+    wait_connected(&mut c).await;
+    let held = |s: &serde_json::Value| s["stopped"].as_bool() == Some(true);
+    let mut status = call(&mut c, Command::Status).await.unwrap();
+    for _ in 0..500 {
+        if held(&status) {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+        status = call(&mut c, Command::Status).await.unwrap();
+    }
+    assert_eq!(status["state"]["cause"]["kind"], "collision", "{status}");
+
+    let r = call(&mut c, Command::Resume).await.unwrap();
+    assert_eq!(r["stopped"], true, "{r}");
+    assert_eq!(r["waiting_for_release"], true, "{r}");
+    assert!(
+        r["note"].as_str().unwrap().contains("still detected"),
+        "{r}"
+    );
+    assert!(held(&call(&mut c, Command::Status).await.unwrap()));
+
+    // The payload's own gravity explains the residual: the contact ends and the latched resume
+    // releases the arm by itself.
+    let truth = mock_robot::SimulationConfig::default().payload;
+    let com = truth.com_m;
+    call(
+        &mut c,
+        Command::ApplyPayload {
+            mass: truth.mass_kg,
+            com,
+        },
+    )
+    .await
+    .unwrap();
+    let mut released = false;
+    for _ in 0..500 {
+        if !held(&call(&mut c, Command::Status).await.unwrap()) {
+            released = true;
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    assert!(released, "the latched resume never released the arm");
+    let r = call(&mut c, Command::Resume).await.unwrap();
+    assert_eq!(r["stopped"], false, "{r}");
+    assert!(r.get("note").is_none(), "{r}");
+    driver.stop();
+    let _ = driver.join();
+    h.stop().await;
+}

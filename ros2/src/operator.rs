@@ -104,7 +104,14 @@ impl Operator {
                 respond(self.call::<EstimateResult>(cmd, on_event).await)
             }
             Trigger::Stop => respond(self.call::<StopResult>(Command::Stop, on_event).await),
-            Trigger::Resume => respond(self.call::<ResumeResult>(Command::Resume, on_event).await),
+            Trigger::Resume => {
+                let r = self.call::<ResumeResult>(Command::Resume, on_event).await;
+                // Still held (a contact still detected, or a new stop): not a success.
+                let held = r.as_ref().is_ok_and(|r| r.stopped);
+                let mut response = respond(r);
+                response.success &= !held;
+                response
+            }
         }
     }
 

@@ -40,6 +40,11 @@ pub(crate) trait Operation {
     fn prints_events(&self) -> bool {
         false
     }
+    /// The exit status of a result the service returned (a result that leaves the arm held
+    /// is not a success for scripts).
+    fn exit_status(&self, _result: &Self::Output) -> u8 {
+        EXIT_OK
+    }
 }
 
 /// How a call ended.
@@ -175,7 +180,7 @@ async fn run_async<O: Operation>(op: &O, command: Command, socket: &Path, out: &
         return failed(out);
     };
     let (printed, code) = match outcome {
-        Outcome::Typed(r) => (op.print(&r, out), EXIT_OK),
+        Outcome::Typed(r) => (op.print(&r, out), op.exit_status(&r)),
         Outcome::Raw(v) if json => (writeln!(out, "{v}"), EXIT_OK),
         Outcome::Raw(v) => (
             writeln!(

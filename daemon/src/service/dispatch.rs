@@ -75,8 +75,8 @@ impl Handler for Dispatcher {
                     pause_s,
                 },
             )),
-            Command::Stop => reply(s.stop()),
-            Command::Resume => reply(s.resume()),
+            Command::Stop => reply(s.stop().await),
+            Command::Resume => reply(s.resume().await),
             Command::Record {
                 path,
                 kind,

@@ -31,6 +31,9 @@ pub mod flags {
     /// The service wants command mode (a move is pending or running): with [`COMMAND_MODE`]
     /// clear, the controller has not entered it yet.
     pub const COMMAND_REQUESTED: u32 = 1 << 8;
+    /// The payload is declared unknown: the armed monitor detects against the torque a plausible
+    /// flange load explains (`expect-payload`, docs/collision-detection.md).
+    pub const PAYLOAD_UNKNOWN: u32 = 1 << 9;
 }
 
 /// Robot state, published once per FRI cycle on `<prefix>/state`.

@@ -112,18 +112,63 @@ fn ridge_solve<const D: usize>(
     h: &SMatrix<f64, D, D>,
     rhs: &SVector<f64, D>,
 ) -> Option<SVector<f64, D>> {
-    let ridge = RIDGE * h.trace().abs() + f64::MIN_POSITIVE;
+    damped_solve(h, rhs, RIDGE * h.trace().abs() + f64::MIN_POSITIVE)
+}
+
+/// Solves (H + μI) δ = rhs; `None` when it cannot be factored.
+fn damped_solve<const D: usize>(
+    h: &SMatrix<f64, D, D>,
+    rhs: &SVector<f64, D>,
+    ridge: f64,
+) -> Option<SVector<f64, D>> {
     let regularised = h + SMatrix::<f64, D, D>::identity() * ridge;
     let x = regularised.cholesky()?.solve(rhs);
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
+/// Bisection steps of the damped step's search (factor 10⁻⁶·trace … 10⁶·trace of μ).
+const DAMPING_STEPS: usize = 40;
+
+/// The step from `anchor` along the damped path δ(μ) = (H + μI)⁻¹(g − H·anchor) with the least
+/// damping μ that keeps anchor + δ(μ) plausible (a trust region around the anchor): directions
+/// the data barely determine shrink first, well-determined ones keep their fit. `None` when the
+/// anchor itself is not plausible or no damping makes the step plausible.
+fn damped_into_cone<const D: usize>(
+    h: &SMatrix<f64, D, D>,
+    g: &SVector<f64, D>,
+    anchor: &SVector<f64, D>,
+    bounds: &FlangeLoadBounds,
+) -> Option<SVector<f64, D>> {
+    if !inside(anchor, bounds) {
+        return None;
+    }
+    let rhs = g - h * anchor;
+    let scale = h.trace().abs().max(f64::MIN_POSITIVE);
+    let at =
+        |log_mu: f64| damped_solve(h, &rhs, scale * 10f64.powf(log_mu)).map(|step| anchor + step);
+    let (mut lo, mut hi) = (-6.0, 6.0);
+    let mut best = at(hi).filter(|x| inside(x, bounds))?;
+    for _ in 0..DAMPING_STEPS {
+        let mid = 0.5 * (lo + hi);
+        match at(mid) {
+            Some(x) if inside(&x, bounds) => {
+                best = x;
+                hi = mid;
+            }
+            _ => lo = mid,
+        }
+    }
+    Some(best)
+}
+
 /// Minimises ½ xᵀH x − gᵀx over the cone K of `bounds` (x = (m, w) as in the module
 /// documentation). Directions H does not determine stay at `anchor`. Exact when the
-/// unconstrained minimum is plausible; otherwise the best of the projection of that minimum,
-/// the minimum on the face it projects to (m = M, or its ray on the lateral surface) and the
-/// apex. The result is always inside K, so the misfit it leaves is never smaller than the best
-/// plausible one: an implausible load is reported as at least as unexplained as it is.
+/// unconstrained minimum is plausible; otherwise the best of: the least-damped plausible step
+/// from the anchor (so a barely determined direction that the data would push out of K does not
+/// drag the well-determined ones with it), the projection of the minimum, the minimum on the
+/// face it projects to (m = M, or its ray on the lateral surface) and the apex. The result is
+/// always inside K, so the misfit it leaves is never smaller than the best plausible one: an
+/// implausible load is reported as at least as unexplained as it is.
 pub(crate) fn minimise_in_cone<const D: usize>(
     h: &SMatrix<f64, D, D>,
     g: &SVector<f64, D>,
@@ -150,6 +195,9 @@ pub(crate) fn minimise_in_cone<const D: usize>(
         }
     };
     consider(apex);
+    if let Some(x) = damped_into_cone(h, g, anchor, bounds) {
+        consider(x);
+    }
     let big_m = bounds.max_mass_kg;
     if (projected[0] - big_m).abs() <= 1e-9 * (1.0 + big_m) {
         // On the top face: the best w for m = M, from the block H_ww w = g_w − H_wm M (written

@@ -33,6 +33,9 @@ impl CycleProcessor {
         if self.command_wanted {
             f |= flags::COMMAND_REQUESTED;
         }
+        if self.tolerance.is_active() {
+            f |= flags::PAYLOAD_UNKNOWN;
+        }
         let mut qd = [0.0; 7];
         qd.copy_from_slice(velocity.as_slice());
         // An unsynchronised observer's value is not published: NaN, flagged.

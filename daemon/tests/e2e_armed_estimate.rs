@@ -31,14 +31,6 @@ fn three_pose_tare() -> Command {
     }
 }
 
-fn declare() -> Command {
-    Command::ExpectPayload {
-        max_mass: None,
-        max_radius: None,
-        end: None,
-    }
-}
-
 fn estimate_and_apply() -> Command {
     Command::EstimatePayload {
         around: None,
@@ -111,7 +103,7 @@ fn count(events: &Collected, name: &str) -> usize {
 async fn tare_declare_grasp_and_estimate_with_the_monitor_armed_throughout() {
     let dir = tempfile::tempdir().unwrap();
     let (h, mut c, driver, events) = tared_and_restarted(dir, 31, Vec::new()).await;
-    let declared = call(&mut c, declare()).await.unwrap();
+    let declared = call(&mut c, declare_payload_unknown()).await.unwrap();
     assert_eq!(
         declared["unknown_payload"]["declared_by"], "operator",
         "{declared}"
@@ -176,7 +168,7 @@ async fn a_contact_during_the_armed_estimate_is_caught_holds_the_arm_and_aborts_
         },
     };
     let (h, mut c, driver, events) = tared_and_restarted(dir, 37, vec![contact]).await;
-    call(&mut c, declare()).await.unwrap();
+    call(&mut c, declare_payload_unknown()).await.unwrap();
     until_after_grasp(&driver, 0.5).await;
     let e = call(&mut c, estimate_and_apply()).await.unwrap_err();
     assert_eq!(e.code, ErrorCode::Aborted, "{e:?}");

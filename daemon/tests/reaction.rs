@@ -277,6 +277,12 @@ impl Rig {
             q: self.q,
             load_torque,
         });
+        let h = self.refit();
+        self.send(CycleRequest::PayloadHypothesis(h));
+    }
+
+    /// The hypothesis of the samples so far, as the service fits it.
+    fn refit(&mut self) -> PayloadHypothesis<7> {
         let h = fit_hypothesis(
             &self.model,
             self.declaration,
@@ -286,7 +292,7 @@ impl Rig {
         )
         .unwrap();
         self.hypothesis = Some(h);
-        self.send(CycleRequest::PayloadHypothesis(h));
+        h
     }
 
     /// Applies the hypothesis' load as the payload (`estimate-payload --apply`).
@@ -468,14 +474,7 @@ fn samples_no_flange_load_explains_across_the_poses_are_a_contact() {
     let mut tainted = *rig.samples.last().unwrap();
     tainted.load_torque[0] += 10.0;
     rig.samples.push(tainted);
-    let h = fit_hypothesis(
-        &rig.model,
-        rig.declaration,
-        &rig.samples,
-        &V7::repeat(safety::DEFAULT_THRESHOLD_NM),
-        &BOUNDS,
-    )
-    .unwrap();
+    let h = rig.refit();
     assert!(!h.consistent, "{h:?}");
     rig.send(CycleRequest::PayloadHypothesis(h));
     let events = rig.run(50);

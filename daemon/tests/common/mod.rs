@@ -71,6 +71,15 @@ pub fn six_pose_tare() -> Command {
     }
 }
 
+/// `expect-payload` with the service's default bounds: the payload is about to be grasped.
+pub fn declare_payload_unknown() -> Command {
+    Command::ExpectPayload {
+        max_mass: None,
+        max_radius: None,
+        end: None,
+    }
+}
+
 /// `config` armed, reacting with a stop.
 pub fn armed_to_stop(mut config: Config) -> Config {
     config.observer.armed = true;

@@ -124,10 +124,7 @@ mod tests {
     use dynamics::{Data, forward_kinematics, payload_gravity_regressor};
     use nalgebra::SVector;
 
-    const BOUNDS: FlangeLoadBounds = FlangeLoadBounds {
-        max_mass_kg: 7.0,
-        radius_m: 0.3,
-    };
+    const BOUNDS: FlangeLoadBounds = super::super::plausible::TEST_BOUNDS;
 
     #[test]
     fn one_pose_explains_a_plausible_load_and_not_a_lifting_or_sideways_push() {

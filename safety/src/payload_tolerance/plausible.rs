@@ -227,15 +227,19 @@ pub(crate) fn minimise_in_cone<const D: usize>(
     best
 }
 
+/// The service's default bounds (the LWR 4+'s rated 7 kg within 0.3 m), for the tests.
+#[cfg(test)]
+pub(crate) const TEST_BOUNDS: FlangeLoadBounds = FlangeLoadBounds {
+    max_mass_kg: 7.0,
+    radius_m: 0.3,
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use nalgebra::{Matrix3, Vector3};
 
-    const BOUNDS: FlangeLoadBounds = FlangeLoadBounds {
-        max_mass_kg: 7.0,
-        radius_m: 0.3,
-    };
+    const BOUNDS: FlangeLoadBounds = TEST_BOUNDS;
 
     #[test]
     fn projection_lands_on_the_nearest_face() {

@@ -36,6 +36,9 @@ pub struct PayloadHypothesis<const N: usize> {
     /// Upper bound of the payload's mass for the inertia allowance \[kg\]: the fit's mass plus
     /// three standard deviations (from the misfit), at most the declared maximum.
     pub mass_bound_kg: f64,
+    /// Three standard deviations of the fitted centre of mass \[m\] (from the misfit; +∞ while
+    /// the samples leave a direction open, e.g. the height along gravity after one pose).
+    pub com_uncertainty_m: f64,
     /// The misfit Y θ − z of the sample the fit explains worst \[Nm\].
     pub worst_misfit: SVector<f64, N>,
     /// Whether every sample is explained within the thresholds; otherwise the samples hold a
@@ -118,6 +121,7 @@ pub fn fit_hypothesis<const N: usize>(
         .map(|c| c.inverse()[(0, 0)])
         .map_or(0.0, |v| (v.max(0.0) * variance).sqrt());
     let mass_bound_kg = (parameters[0] + 3.0 * mass_std).min(bounds.max_mass_kg);
+    let com_uncertainty_m = com_uncertainty(&information, &parameters, variance, mass_std);
     Some(PayloadHypothesis {
         declaration,
         samples: samples.len() as u32,
@@ -125,7 +129,34 @@ pub fn fit_hypothesis<const N: usize>(
         weighted_load,
         parameters,
         mass_bound_kg,
+        com_uncertainty_m,
         worst_misfit,
         consistent: worst <= 1.0,
     })
+}
+
+/// Three standard deviations of the centre of mass c = h/m of the fit with normal matrix
+/// `information`, misfit variance `variance` and mass standard deviation `mass_std`:
+/// δc = (δh − c δm)/m. +∞ when the samples leave a direction open (its variance is of the
+/// order of the ridge's inverse) or the mass is zero.
+fn com_uncertainty(
+    information: &Matrix4<f64>,
+    parameters: &Vector4<f64>,
+    variance: f64,
+    mass_std: f64,
+) -> f64 {
+    let m = parameters[0];
+    let eigen = information.symmetric_eigenvalues();
+    let open = eigen.min() <= 1e-6 * eigen.max().max(f64::MIN_POSITIVE);
+    let Some(inverse) = information.cholesky().map(|c| c.inverse()) else {
+        return f64::INFINITY;
+    };
+    if open || m <= 0.0 {
+        return f64::INFINITY;
+    }
+    let h_std = ((inverse[(1, 1)] + inverse[(2, 2)] + inverse[(3, 3)]) * variance)
+        .max(0.0)
+        .sqrt();
+    let com = parameters.fixed_rows::<3>(1) / m;
+    3.0 * (h_std + com.norm() * mass_std) / m
 }

@@ -10,6 +10,13 @@
 //! point mass's ten parameters: a quadratic in p, bounded on the ball by
 //! |φ_j(f)| + ‖∇φ_j(f)‖ R + ‖A_j‖_F R² (A_j its Hessian/2).
 //!
+//! Once static samples locate the centre of mass (to within ε around ĉ), a second bound holds:
+//! the body is its mass at the centre of mass plus its inertia about it, I_c ⪯ m R² (all its
+//! mass lies within R of f), so |τ_j| ≤ m_b · max over p in the ball of radius ε around ĉ of
+//! |φ_j(p)| + m_b R² ‖B_j‖_* with B_j the matrix of row j's inertia coefficients
+//! (y·π = tr(B I) for the inertia part; ‖·‖_* its nuclear norm ≤ √3 ‖B_j‖_F). The allowance
+//! is the smaller of the two on every joint.
+//!
 //! The regressor is linear in q̈: y(q̇, q̈) = y(q̇, 0) + y(0, q̈). A commanded move is a
 //! straight line in joint space, q̈ = s̈·Δ with |s̈| at most its profile's peak, so evaluating
 //! the bound at q̈ = ±s̈_peak·Δ (the bound is convex in q̈) covers every instant of the move and
@@ -40,6 +47,32 @@ pub(crate) fn ball_bound(y: &[f64; 10], centre: &Vector3<f64>, radius: f64) -> f
     value.abs() + gradient.norm() * radius + a.norm() * radius * radius
 }
 
+/// Upper bound of |y·π| over the inertia parameters of every body of unit mass whose inertia
+/// about its centre of mass is at most `radius`² (spectral norm): √3 ‖B‖_F `radius`², B the
+/// symmetric matrix with y·π = tr(B I) for the six inertia entries.
+pub(crate) fn rotation_bound(y: &[f64; 10], radius: f64) -> f64 {
+    let b = Matrix3::new(
+        y[4],
+        0.5 * y[5],
+        0.5 * y[6],
+        0.5 * y[5],
+        y[7],
+        0.5 * y[8],
+        0.5 * y[6],
+        0.5 * y[8],
+        y[9],
+    );
+    3f64.sqrt() * b.norm() * radius * radius
+}
+
+/// Where the payload's centre of mass is known to lie: a ball around `centre` (last DH
+/// frame, m) of radius `radius` (m).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct KnownCentre {
+    pub(crate) centre: Vector3<f64>,
+    pub(crate) radius: f64,
+}
+
 /// Joint-torque bound of an unknown payload's inertia (see the module documentation).
 #[derive(Debug, Clone)]
 pub(crate) struct InertiaEnvelope<const N: usize> {
@@ -60,8 +93,9 @@ impl<const N: usize> InertiaEnvelope<N> {
     }
 
     /// Largest |τ_j| \[Nm\] the inertia of any payload of at most `mass_kg` in the ball of
-    /// `radius_m` around the flange can take at positions `q` \[rad\], velocities `qd`
-    /// \[rad/s\] and any acceleration s·`peak_acceleration` \[rad/s²\], −1 ≤ s ≤ 1.
+    /// `radius_m` around the flange (with its centre of mass in `centre`, when known) can take at
+    /// positions `q` \[rad\], velocities `qd` \[rad/s\] and any acceleration
+    /// s·`peak_acceleration` \[rad/s²\], −1 ≤ s ≤ 1.
     pub(crate) fn allowance(
         &mut self,
         q: &SVector<f64, N>,
@@ -69,6 +103,7 @@ impl<const N: usize> InertiaEnvelope<N> {
         peak_acceleration: &SVector<f64, N>,
         mass_kg: f64,
         radius_m: f64,
+        centre: Option<KnownCentre>,
     ) -> SVector<f64, N> {
         let zero = SVector::<f64, N>::zeros();
         let velocity = payload_regressor(&self.weightless, &mut self.data, q, qd, &zero);
@@ -87,7 +122,13 @@ impl<const N: usize> InertiaEnvelope<N> {
                 for (k, r) in row.iter_mut().enumerate() {
                     *r = velocity[(j, k)] + sign * acceleration[(j, k)];
                 }
-                worst = worst.max(ball_bound(&row, &self.flange, radius_m));
+                let mut bound = ball_bound(&row, &self.flange, radius_m);
+                if let Some(c) = centre {
+                    bound = bound.min(
+                        ball_bound(&row, &c.centre, c.radius) + rotation_bound(&row, radius_m),
+                    );
+                }
+                worst = worst.max(bound);
             }
             out[j] = mass_kg.max(0.0) * worst;
         }
@@ -122,7 +163,7 @@ mod tests {
             let q = SVector::<f64, 7>::from_fn(|_, _| 1.5 * uniform());
             let qd = SVector::<f64, 7>::from_fn(|_, _| 0.9 * uniform());
             let peak = SVector::<f64, 7>::from_fn(|_, _| 5.0 * uniform());
-            let allowance = envelope.allowance(&q, &qd, &peak, mass_bound, radius);
+            let allowance = envelope.allowance(&q, &qd, &peak, mass_bound, radius, None);
             // A body of three point masses inside the ball, 0…7 kg in total.
             let mut body = InertialParameters::zero();
             let total = mass_bound * 0.5 * (1.0 + uniform());
@@ -131,6 +172,19 @@ mod tests {
                 let p = flange + d.normalize() * radius * uniform().abs();
                 body = body.plus(&InertialParameters::point_mass(total / 3.0, p));
             }
+            // The same body with its centre of mass known to within 2 cm.
+            let com = body.com().unwrap_or(flange);
+            let located = envelope.allowance(
+                &q,
+                &qd,
+                &peak,
+                mass_bound,
+                radius,
+                Some(KnownCentre {
+                    centre: com + Vector3::new(0.01, -0.01, 0.005),
+                    radius: 0.02,
+                }),
+            );
             let s = uniform();
             let y = payload_regressor(&weightless, &mut data, &q, &qd, &(peak * s));
             let tau = y * body.to_vector();
@@ -141,6 +195,13 @@ mod tests {
                     tau[j],
                     allowance[j]
                 );
+                assert!(
+                    tau[j].abs() <= located[j] + 1e-9,
+                    "joint {j}: {} > {} (centre located)",
+                    tau[j],
+                    located[j]
+                );
+                assert!(located[j] <= allowance[j] + 1e-12);
                 if allowance[j] > 1e-6 {
                     tightest = tightest.max(tau[j].abs() / allowance[j]);
                 }

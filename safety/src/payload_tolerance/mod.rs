@@ -19,7 +19,8 @@
 //!   contact (its worst misfit is added to what the detector sees);
 //! - **while the service moves the arm**, the payload's inertia, which no gravity fit predicts,
 //!   gets an allowance derived from the motion (the move's peak acceleration along its line and
-//!   the measured velocities) and the mass bound ([`inertia`]): the detector sees
+//!   the measured velocities), the mass bound and, once the samples locate it, the centre of
+//!   mass ([`inertia`]): the detector sees
 //!   sign(e_j)·max(|e_j| − a_j, 0), i.e. the threshold grows by a_j.
 //!
 //! The payload itself never trips; a contact a flange load cannot explain does, at the
@@ -36,7 +37,7 @@ use nalgebra::{SVector, Vector3, Vector4};
 
 use crate::error::ConfigError;
 pub use hypothesis::{LoadSample, PayloadHypothesis, fit_hypothesis};
-use inertia::InertiaEnvelope;
+use inertia::{InertiaEnvelope, KnownCentre};
 pub use plausible::FlangeLoadBounds;
 
 /// An active declaration: its number and bounds.
@@ -168,13 +169,13 @@ impl<const N: usize> PayloadTolerance<N> {
         let w = fit::weights(thresholds);
         let y = payload_gravity_regressor(&self.model, &mut self.data, q);
         let z = y * applied - residual;
-        let (load, mass_bound) = match &self.hypothesis {
+        let (load, mass_bound, centre) = match &self.hypothesis {
             None => {
                 let orientation =
                     forward_kinematics(&self.model, &mut self.data, q)[N - 1].rotation;
                 let u = fit::gravity_in_last(&orientation, &self.model.gravity());
                 let load = fit::fit_at_pose(&y, &z, &w, &self.flange, &u, &bounds);
-                (load, bounds.max_mass_kg)
+                (load, bounds.max_mass_kg, None)
             }
             Some(h) => {
                 let (hq, gq) = fit::normal_equations(&y, &z, &w);
@@ -187,7 +188,14 @@ impl<const N: usize> PayloadTolerance<N> {
                     &anchor,
                     &bounds,
                 );
-                (load, h.mass_bound_kg)
+                let located = h
+                    .com()
+                    .filter(|_| h.com_uncertainty_m < bounds.radius_m)
+                    .map(|centre| KnownCentre {
+                        centre,
+                        radius: h.com_uncertainty_m,
+                    });
+                (load, h.mass_bound_kg, located)
             }
         };
         let mut unexplained = y * load - z;
@@ -199,8 +207,14 @@ impl<const N: usize> PayloadTolerance<N> {
             }
         }
         self.allowance = if self.moving {
-            self.inertia
-                .allowance(q, qd, &self.peak_acceleration, mass_bound, bounds.radius_m)
+            self.inertia.allowance(
+                q,
+                qd,
+                &self.peak_acceleration,
+                mass_bound,
+                bounds.radius_m,
+                centre,
+            )
         } else {
             SVector::zeros()
         };

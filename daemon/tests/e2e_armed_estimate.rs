@@ -49,6 +49,7 @@ async fn tared_and_restarted(
     dir: tempfile::TempDir,
     seed: u64,
     contacts: Vec<ContactSpec>,
+    payload_kg: f64,
 ) -> (Harness, fri_api::client::Client, MockRobotHandle, Collected) {
     let mut config = armed_to_stop(test_config(dir.path()));
     // The real-time session comes from a new port: bind it soon after the lockstep one ends.
@@ -62,6 +63,7 @@ async fn tared_and_restarted(
     assert_eq!(tare["samples"], 3, "{tare}");
     drop(driver.join());
     let mut restarted = sim(false, seed);
+    restarted.payload.mass_kg = payload_kg;
     restarted.payload.events = vec![mock_robot::config::PayloadEvent {
         time_s: GRASP_S,
         action: mock_robot::config::PayloadAction::Attach,
@@ -102,7 +104,7 @@ fn count(events: &Collected, name: &str) -> usize {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn tare_declare_grasp_and_estimate_with_the_monitor_armed_throughout() {
     let dir = tempfile::tempdir().unwrap();
-    let (h, mut c, driver, events) = tared_and_restarted(dir, 31, Vec::new()).await;
+    let (h, mut c, driver, events) = tared_and_restarted(dir, 31, Vec::new(), 3.028).await;
     let declared = call(&mut c, declare_payload_unknown()).await.unwrap();
     assert_eq!(
         declared["unknown_payload"]["declared_by"], "operator",
@@ -167,7 +169,7 @@ async fn a_contact_during_the_armed_estimate_is_caught_holds_the_arm_and_aborts_
             duration_s: 0.3,
         },
     };
-    let (h, mut c, driver, events) = tared_and_restarted(dir, 37, vec![contact]).await;
+    let (h, mut c, driver, events) = tared_and_restarted(dir, 37, vec![contact], 3.028).await;
     call(&mut c, declare_payload_unknown()).await.unwrap();
     until_after_grasp(&driver, 0.5).await;
     let e = call(&mut c, estimate_and_apply()).await.unwrap_err();
@@ -198,6 +200,60 @@ async fn a_contact_during_the_armed_estimate_is_caught_holds_the_arm_and_aborts_
             .collect();
         assert_eq!(times.len(), 1, "{evs:?}");
     }
+    drop(driver.join());
+    h.stop().await;
+}
+
+/// A light payload grasped without a declaration stays under the thresholds, so nothing trips;
+/// `estimate-payload` sees that the applied payload (none) does not explain the residual and
+/// runs in the unknown-payload mode by itself; without `--apply` the mode stays on until the
+/// operator applies the estimate.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn estimate_payload_enters_the_mode_itself_when_the_residual_is_unexplained() {
+    let dir = tempfile::tempdir().unwrap();
+    let (h, mut c, driver, events) = tared_and_restarted(dir, 41, Vec::new(), 0.5).await;
+    until_after_grasp(&driver, 0.5).await;
+    let status = call(&mut c, Command::Status).await.unwrap();
+    assert_eq!(status["stopped"], false, "{status}");
+    assert!(
+        status["unknown_payload"].is_null(),
+        "not declared: {status}"
+    );
+    let largest = (0..7)
+        .map(|j| status["residual"][j].as_f64().unwrap_or(0.0).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        largest > 2.0 && largest < 6.0,
+        "between a third of the threshold and the threshold: {status}"
+    );
+    let mut estimate = estimate_and_apply();
+    if let Command::EstimatePayload { apply, .. } = &mut estimate {
+        *apply = Some(false);
+    }
+    let est = call(&mut c, estimate).await.unwrap();
+    let status = call(&mut c, Command::Status).await.unwrap();
+    let mode = &status["unknown_payload"];
+    assert_eq!(mode["declared_by"], "estimate-payload", "{status}");
+    assert_eq!(mode["samples"], 4, "three poses and the revisit: {status}");
+    assert_eq!(mode["consistent"], true);
+    assert!(
+        (mode["mass"].as_f64().unwrap() - 0.5).abs() < 0.02,
+        "{status}"
+    );
+    let com: [f64; 3] = serde_json::from_value(est["com"].clone()).unwrap();
+    let mass = est["mass"].as_f64().unwrap();
+    call(&mut c, Command::ApplyPayload { mass, com })
+        .await
+        .unwrap();
+    let status = call(&mut c, Command::Status).await.unwrap();
+    assert!(status["unknown_payload"].is_null(), "{status}");
+    assert_eq!(status["stopped"], false, "{status}");
+    assert_eq!(
+        count(&events, "collision"),
+        0,
+        "{:?}",
+        events.lock().unwrap()
+    );
     drop(driver.join());
     h.stop().await;
 }

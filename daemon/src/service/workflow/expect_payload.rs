@@ -180,7 +180,9 @@ impl ServiceCore {
     /// `estimate-payload`'s entry into the mode: when the monitor is armed, the payload is not
     /// declared unknown yet and the residual at rest on some joint is more than
     /// [`UNEXPLAINED_SHARE`] of its threshold, the applied payload does not explain it; the
-    /// estimate then runs in the unknown-payload mode with the configured bounds.
+    /// estimate then runs in the unknown-payload mode with the configured bounds. Never while
+    /// the arm is held or a contact is detected: what tripped the monitor is resolved by the
+    /// operator (`expect-payload`, `resume`), not reclassified as a payload by a workflow.
     pub(crate) async fn expect_payload_when_unexplained(&self) -> Result<(), OperatorError> {
         let (armed, active, thresholds) =
             self.persistent(|s| (s.armed, s.unknown_payload.is_some(), s.thresholds));
@@ -190,6 +192,9 @@ impl ServiceCore {
         let started = tokio::time::Instant::now();
         let residual = loop {
             let latest = self.latest()?;
+            if latest.state.is_held() || latest.collision() {
+                return Ok(());
+            }
             if latest.residual_valid() {
                 break latest.robot.residual;
             }

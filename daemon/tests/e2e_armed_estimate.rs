@@ -186,20 +186,10 @@ async fn a_contact_during_the_armed_estimate_is_caught_holds_the_arm_and_aborts_
         status["unknown_payload"].is_object(),
         "nothing was applied: the payload is still unknown: {status}"
     );
-    wait_event(&events, "stopped by the collision", |e, d| {
-        e == "stopped" && d["reason"] == "collision"
-    })
-    .await;
-    {
-        let evs = events.lock().unwrap();
-        // Only the contact is a collision (its onset at the contact's time, not at the grasp).
-        let times: Vec<f64> = evs
-            .iter()
-            .filter(|(k, _)| k == "collision")
-            .map(|(_, d)| d["time_s"].as_f64().unwrap())
-            .collect();
-        assert_eq!(times.len(), 1, "{evs:?}");
-    }
+    wait_stopped_by_collision(&events).await;
+    // Only the contact is a collision, not the grasp.
+    let times = collision_times(&events);
+    assert_eq!(times.len(), 1, "{times:?}");
     drop(driver.join());
     h.stop().await;
 }

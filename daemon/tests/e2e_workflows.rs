@@ -422,17 +422,10 @@ async fn declare_grasp_apply_and_a_contact_stops_the_arm() {
     let status = call(&mut c, Command::Status).await.unwrap();
     assert_eq!(status["stopped"], true, "the arm is held: {status}");
     // The watch is another connection: its events are not ordered with this reply.
-    wait_event(&events, "stopped by the collision", |e, d| {
-        e == "stopped" && d["reason"] == "collision"
-    })
-    .await;
+    wait_stopped_by_collision(&events).await;
     {
+        let collisions = collision_times(&events);
         let evs = events.lock().unwrap();
-        let collisions: Vec<f64> = evs
-            .iter()
-            .filter(|(k, _)| k == "collision")
-            .map(|(_, d)| d["time_s"].as_f64().unwrap())
-            .collect();
         assert!(
             !collisions.is_empty() && collisions.iter().all(|t| *t > 3.9),
             "only the contact is a collision: {collisions:?}"

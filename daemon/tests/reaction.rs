@@ -258,6 +258,16 @@ fn stopped_by_collision(events: &[CycleEvent]) -> bool {
 }
 
 impl Rig {
+    /// Armed (reaction: stop), the payload declared unknown and then picked up, at rest.
+    fn declared_and_grasped() -> Self {
+        let mut rig = Rig::new(ReactionMode::Stop, true);
+        rig.run(100);
+        rig.declare();
+        rig.carried = true;
+        rig.run(200);
+        rig
+    }
+
     /// Declares the payload unknown, as `expect-payload` does.
     fn declare(&mut self) {
         self.declaration += 1;
@@ -434,11 +444,7 @@ fn what_the_unknown_payload_mode_tolerates_before_and_after_samples() {
         );
     }
     // After samples at two poses the fit pins the payload: 30 N down on the flange is a contact.
-    let mut rig = Rig::new(ReactionMode::Stop, true);
-    rig.run(100);
-    rig.declare();
-    rig.carried = true;
-    rig.run(200);
+    let mut rig = Rig::declared_and_grasped();
     rig.sample();
     let mut target = PICK;
     target[1] += 0.12;
@@ -464,11 +470,7 @@ fn what_the_unknown_payload_mode_tolerates_before_and_after_samples() {
 /// hypothesis says so and the armed monitor holds the arm, with the misfit as the residual.
 #[test]
 fn samples_no_flange_load_explains_across_the_poses_are_a_contact() {
-    let mut rig = Rig::new(ReactionMode::Stop, true);
-    rig.run(100);
-    rig.declare();
-    rig.carried = true;
-    rig.run(200);
+    let mut rig = Rig::declared_and_grasped();
     rig.sample();
     assert!(rig.run(100).is_empty());
     let mut tainted = *rig.samples.last().unwrap();

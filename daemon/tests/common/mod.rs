@@ -159,3 +159,22 @@ pub async fn wait_event(events: &Collected, what: &str, pred: impl Fn(&str, &Val
         tokio::time::sleep(Duration::from_millis(5)).await;
     }
 }
+
+/// Controller times of the collision events collected so far, s.
+pub fn collision_times(events: &Collected) -> Vec<f64> {
+    events
+        .lock()
+        .unwrap()
+        .iter()
+        .filter(|(k, _)| k == "collision")
+        .map(|(_, d)| d["time_s"].as_f64().unwrap())
+        .collect()
+}
+
+/// Waits until a `stopped` event with the collision as its reason was collected.
+pub async fn wait_stopped_by_collision(events: &Collected) {
+    wait_event(events, "stopped by the collision", |e, d| {
+        e == "stopped" && d["reason"] == "collision"
+    })
+    .await;
+}

@@ -80,6 +80,20 @@ const ARGUMENTS: &[Argument] = &[
         range: |_| bounds::COM,
     },
     Argument {
+        commands: &["expect-payload"],
+        field: "max_mass",
+        elements: None,
+        kind: Kind::Number,
+        range: |_| bounds::UNKNOWN_PAYLOAD_MASS,
+    },
+    Argument {
+        commands: &["expect-payload"],
+        field: "max_radius",
+        elements: None,
+        kind: Kind::Number,
+        range: |_| bounds::UNKNOWN_PAYLOAD_RADIUS,
+    },
+    Argument {
         commands: &["collision"],
         field: "thresholds",
         elements: Some(JOINTS),

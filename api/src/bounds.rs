@@ -187,6 +187,16 @@ pub const MASS: Range = Range::new(0.0, 20.0, "kg");
 /// Each payload centre-of-mass coordinate in frame 7, m.
 pub const COM: Range = Range::new(-1.0, 1.0, "m");
 
+/// Largest mass of a payload declared unknown (`expect-payload`'s `max_mass`,
+/// `unknown_payload.max_mass_kg`), kg: up to the LWR 4+'s rated 7 kg. Every gram above the real
+/// payload's mass is a downward push on the flange the monitor tolerates before the first
+/// static sample, so the bound is the rating, not [`MASS`]'s room for overload.
+pub const UNKNOWN_PAYLOAD_MASS: Range = Range::new(0.01, 7.0, "kg");
+
+/// Radius around the flange point that holds a payload declared unknown (`max_radius`,
+/// `unknown_payload.max_radius_m`), m: from a part in the gripper's fingers to a metre-long tool.
+pub const UNKNOWN_PAYLOAD_RADIUS: Range = Range::new(0.01, 1.0, "m");
+
 /// Pattern increment, degrees: below 1° neighbouring poses are too alike for a well-conditioned
 /// estimate; above 30° the pattern leaves the "around the pick pose" regime of the paper.
 pub const STEP_DEG: Range = Range::new(1.0, 30.0, "deg");

@@ -34,6 +34,9 @@ pub mod flags {
     /// A `resume` arrived while a contact was still detected: the arm stays held (with
     /// [`STOPPED`]) and is released when the contact ends.
     pub const RESUME_PENDING: u32 = 1 << 9;
+    /// The payload is declared unknown: the armed monitor detects against the torque a plausible
+    /// flange load explains (`expect-payload`, docs/collision-detection.md).
+    pub const PAYLOAD_UNKNOWN: u32 = 1 << 10;
 }
 
 /// Robot state, published once per FRI cycle on `<prefix>/state`.

@@ -72,6 +72,7 @@ fn status_connected_and_disconnected() {
                     "reaction": "stop", "pause_s": 2.0, "persisted": false,
                     "set_for_payload": null, "payload_changed": false},
         "state": {"kind": "commanding"},
+        "unknown_payload": null,
     });
     let s: StatusResult = round_trip(connected.clone());
     assert_eq!(s.fri.unwrap().cycles, 1234);
@@ -87,6 +88,7 @@ fn status_connected_and_disconnected() {
                     "reaction": "stop", "pause_s": 2.0, "persisted": false,
                     "set_for_payload": null, "payload_changed": false},
         "state": null,
+        "unknown_payload": null,
     });
     // Held by a collision: the state names the cause and the controller's view.
     let mut held = connected.clone();
@@ -101,6 +103,28 @@ fn status_connected_and_disconnected() {
     warming["residual"] = json!([null, null, null, null, null, null, null]);
     let s: StatusResult = round_trip(warming);
     assert!(s.residual.unwrap()[0].is_nan());
+    // The payload declared unknown, three static samples fitted.
+    let mut grasping = connected;
+    grasping["unknown_payload"] = json!({
+        "declared_by": "operator", "max_mass": 7.0, "max_radius": 0.3, "samples": 3,
+        "mass": 3.03, "com": [0.0, 0.0, 0.119], "consistent": true,
+    });
+    let s: StatusResult = round_trip(grasping);
+    assert_eq!(s.unknown_payload.unwrap().samples, 3);
+}
+
+#[test]
+fn expect_payload_results() {
+    let declared: ExpectPayloadResult = round_trip(json!({"unknown_payload": {
+        "declared_by": "estimate-payload", "max_mass": 2.0, "max_radius": 0.25, "samples": 0,
+        "mass": null, "com": null, "consistent": true,
+    }}));
+    assert_eq!(
+        declared.unknown_payload.unwrap().declared_by,
+        DeclaredBy::EstimatePayload
+    );
+    let ended: ExpectPayloadResult = round_trip(json!({"unknown_payload": null}));
+    assert!(ended.unknown_payload.is_none());
 }
 
 #[test]

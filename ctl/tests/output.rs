@@ -72,6 +72,13 @@ impl Handler for FakeService {
                 Ok(json!({"payload": {"mass": mass, "com": com, "frame": "7"}}))
             }
             Request::ClearPayload => Ok(json!({"payload": null})),
+            Request::ExpectPayload {
+                end: Some(true), ..
+            } => Ok(json!({"unknown_payload": null})),
+            Request::ExpectPayload { max_mass, .. } => Ok(json!({"unknown_payload": {
+                "declared_by": "operator", "max_mass": max_mass.unwrap_or(7.0), "max_radius": 0.3,
+                "samples": 2, "mass": 3.031, "com": [0.0, 0.0, 0.119], "consistent": true,
+            }})),
             Request::Collision { .. } => Ok(monitor),
             Request::Stop => Ok(json!({"stopped": true, "controller": "connected"})),
             Request::Resume => Ok(json!({"stopped": false})),
@@ -193,7 +200,7 @@ async fn the_socket_comes_from_either_side_of_the_subcommand_or_the_environment(
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn every_command_prints_text_with_units() {
     let (_dir, socket, _fake) = fake_service().await;
-    let cases: [(&[&str], &[&str]); 11] = [
+    let cases: [(&[&str], &[&str]); 13] = [
         (
             &["status"],
             &[
@@ -218,6 +225,15 @@ async fn every_command_prints_text_with_units() {
             &["payload applied  1.5000 kg", "y +10.00  z -20.00"],
         ),
         (&["clear-payload"], &["payload cleared"]),
+        (
+            &["expect-payload", "--max-mass", "4"],
+            &[
+                "payload UNKNOWN",
+                "at most 4.00 kg within 0.300 m",
+                "2 static sample(s): 3.0310 kg",
+            ],
+        ),
+        (&["expect-payload", "--end"], &["payload known"]),
         (
             &["collision", "show"],
             &["monitor        ARMED", "threshold [Nm]", "gain [1/s]"],

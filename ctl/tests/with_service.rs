@@ -260,6 +260,28 @@ async fn the_daemons_results_decode_into_the_typed_results() {
     assert_eq!(p.payload.unwrap().com[0], -0.0005);
     let p: PayloadResult = typed(&mut c, Command::ClearPayload).await;
     assert!(p.payload.is_none());
+    let u: ExpectPayloadResult = typed(
+        &mut c,
+        Command::ExpectPayload {
+            max_mass: Some(4.0),
+            max_radius: None,
+            end: None,
+        },
+    )
+    .await;
+    assert_eq!(u.unknown_payload.unwrap().max_mass, 4.0);
+    let s: StatusResult = typed(&mut c, Command::Status).await;
+    assert_eq!(s.unknown_payload.unwrap().declared_by, DeclaredBy::Operator);
+    let u: ExpectPayloadResult = typed(
+        &mut c,
+        Command::ExpectPayload {
+            max_mass: None,
+            max_radius: None,
+            end: Some(true),
+        },
+    )
+    .await;
+    assert!(u.unknown_payload.is_none());
     for action in [
         CollisionAction::Show,
         CollisionAction::Arm,

@@ -72,10 +72,8 @@ struct Outcome {
 
 async fn one(seed: u64, a: &Args) -> anyhow::Result<Outcome> {
     let dir = tempfile::tempdir()?;
-    let mut config = local_config(dir.path(), &format!("seeds{seed}"));
-    // An unknown payload trips the armed monitor when picked (the paper's point): the
-    // estimate runs disarmed, as docs/operator-protocol.md tells the operator.
-    config.observer.armed = false;
+    // Armed throughout: the payload is declared unknown before it is picked up.
+    let config = local_config(dir.path(), &format!("seeds{seed}"));
     let service = InProcess::start(config).await?;
     let mode = TimingMode::Lockstep {
         answer_timeout: Duration::from_millis(500),
@@ -95,6 +93,14 @@ async fn one(seed: u64, a: &Args) -> anyhow::Result<Outcome> {
         pattern: None,
     };
     let tare: TareResult = until_connected(&mut client, tare).await.context("tare")?;
+    let declare = Command::ExpectPayload {
+        max_mass: None,
+        max_radius: None,
+        end: None,
+    };
+    let _: fri_api::results::ExpectPayloadResult = until_connected(&mut client, declare)
+        .await
+        .context("expect-payload")?;
     // The operator attaches the payload: the same robot carries on after `gap_s` of robot time.
     let (mut sim, _) = robot.join().map_err(|e| anyhow::anyhow!("{e}"))?;
     for _ in 0..(a.gap_s / sim.cycle_s()).round() as u64 {

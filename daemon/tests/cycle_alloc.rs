@@ -2,6 +2,7 @@
 //! allocates once warmed up.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
+use fri_service::service::cycle::CycleRequest;
 use fri_service::service::replay::Replay;
 use mock_robot::{Simulation, SimulationConfig};
 
@@ -35,4 +36,72 @@ fn service_cycle_is_allocation_free() {
     assert_eq!(n, 0, "allocations in 2000 cycles");
     // Every cycle handed its state over (2000 states, no drops: the queue holds 65536).
     assert!(kit.drain() >= 2000);
+}
+
+/// The same with the payload declared unknown: the plausible fit at the current pose (before any
+/// sample), then the fit over a sample set (after the refit reached the loop).
+#[test]
+fn service_cycle_with_the_payload_declared_unknown_is_allocation_free() {
+    let mut config = SimulationConfig::default();
+    config.payload.attached_at_start = true;
+    let mut sim = Simulation::new(config).unwrap();
+    for _ in 0..20 {
+        sim.step_cycle(None);
+    }
+    let measurement = *sim.measurement();
+    let mut kit = Replay::new(measurement).unwrap();
+    let bounds = safety::FlangeLoadBounds {
+        max_mass_kg: 7.0,
+        radius_m: 0.3,
+    };
+    assert!(kit.send(CycleRequest::ExpectPayload {
+        declaration: 1,
+        bounds,
+    }));
+    for _ in 0..200 {
+        kit.prepare();
+        assert!(kit.cycle());
+    }
+    kit.drain();
+    let model = dynamics::lwr4();
+    let q = nalgebra::SVector::from(measurement.data.msr_jnt_pos);
+    let tau = nalgebra::SVector::from(measurement.data.msr_jnt_trq);
+    let g = dynamics::compute_generalized_gravity(&model, &mut dynamics::Data::new(&model), &q);
+    let sample = safety::LoadSample {
+        q,
+        load_torque: tau - g,
+    };
+    let hypothesis = safety::fit_hypothesis(
+        &model,
+        1,
+        &[sample],
+        &nalgebra::SVector::repeat(6.0),
+        &bounds,
+    )
+    .unwrap();
+    for phase in [None, Some(hypothesis)] {
+        if let Some(h) = phase {
+            assert!(kit.send(CycleRequest::PayloadHypothesis(h)));
+            kit.prepare();
+            assert!(kit.cycle());
+            kit.drain();
+        }
+        let mut ok = 0;
+        let n = alloc_counter::count_allocations(|| {
+            for _ in 0..1000 {
+                kit.prepare();
+                if kit.cycle() {
+                    ok += 1;
+                }
+            }
+        });
+        assert_eq!(ok, 1000);
+        assert_eq!(
+            n,
+            0,
+            "allocations in 1000 cycles ({:?})",
+            phase.map(|h| h.samples)
+        );
+        kit.drain();
+    }
 }

@@ -14,10 +14,9 @@ use mock_robot::{ServerConfig, TimingMode};
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn tare_then_estimate_through_the_socket_and_persist_after_restart() {
     let dir = tempfile::tempdir().unwrap();
-    let mut config = test_config(dir.path());
-    // The uncompensated payload would trip the monitor: the paper's point. Estimation runs
-    // with the monitor disarmed and contacts caught by the workflow's residual-change check.
-    config.observer.armed = false;
+    // Armed throughout: the payload is declared unknown before it is attached (it would trip the
+    // monitor otherwise, the paper's point) and the estimate runs in the payload-tolerant mode.
+    let config = test_config(dir.path());
     let h = Harness::start(config.clone(), dir).await;
 
     // Tare without payload.
@@ -50,7 +49,9 @@ async fn tare_then_estimate_through_the_socket_and_persist_after_restart() {
         driver.counters().answer_counts()
     );
     // Payload attached to the same simulated robot: its model error, offsets and drift carry
-    // on, and the estimate's noise is independent of the tare's.
+    // on, and the estimate's noise is independent of the tare's. Declared first.
+    let declared = call(&mut c, declare_payload_unknown()).await.unwrap();
+    assert_eq!(declared["unknown_payload"]["samples"], 0, "{declared}");
     let mut robot = driver.join().unwrap().0;
     robot.set_payload_attached(true);
     let driver = mock_robot::spawn(robot, ServerConfig::loopback(h.fri, lockstep())).unwrap();
@@ -148,6 +149,9 @@ async fn tare_then_estimate_through_the_socket_and_persist_after_restart() {
     assert!(est["mass_std"].as_f64().unwrap() > 0.0);
     let status = call(&mut c, Command::Status).await.unwrap();
     assert_eq!(status["payload"]["mass"].as_f64().unwrap(), mass);
+    assert_eq!(status["monitor"]["armed"], true, "{status}");
+    assert!(status["unknown_payload"].is_null(), "applied: {status}");
+    assert_eq!(status["stopped"], false, "{status}");
 
     // Restart the service on the same state directory: the payload comes back.
     let dir = h.stop().await;
@@ -341,11 +345,11 @@ async fn iceoryx2_subscriber_receives_the_service_state() {
     h.stop().await;
 }
 
-/// The documented workflow on the running service in real time: disarm, grasp (the
-/// uncompensated payload trips the detector, silently), apply the payload, arm; a contact during
-/// the next move stops the arm (issue 10, item 1: the reaction used to stay latched).
+/// The documented workflow on the running service in real time, armed throughout: declare the
+/// payload unknown, grasp (the uncompensated payload is tolerated), apply the payload; a contact
+/// during the next move stops the arm (issue 10, item 1: the reaction used to stay latched).
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn disarm_grasp_apply_arm_and_a_contact_stops_the_arm() {
+async fn declare_grasp_apply_and_a_contact_stops_the_arm() {
     let dir = tempfile::tempdir().unwrap();
     let mut config = armed_to_stop(test_config(dir.path()));
     // The default (paper-like) speeds: the applied payload compensates gravity only, so fast
@@ -367,19 +371,8 @@ async fn disarm_grasp_apply_arm_and_a_contact_stops_the_arm() {
     let mut c = h.client().await;
     wait_connected(&mut c).await;
     let events = collect_watch(h.client().await, None).await;
-    call(
-        &mut c,
-        Command::Collision {
-            action: fri_api::protocol::CollisionAction::Disarm,
-            thresholds: None,
-            gains: None,
-            reaction: None,
-            pause_s: None,
-        },
-    )
-    .await
-    .unwrap();
-    // The payload is picked up at 1 s: far over the 6 Nm threshold, uncompensated.
+    call(&mut c, declare_payload_unknown()).await.unwrap();
+    // The payload is picked up at 1 s: far over the 6 Nm threshold, uncompensated, tolerated.
     while driver.counters().answer_counts().sent < 1500 {
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
@@ -395,23 +388,17 @@ async fn disarm_grasp_apply_arm_and_a_contact_stops_the_arm() {
     }
     let r2 = status["residual"][1].as_f64().unwrap_or(0.0);
     assert!(r2.abs() > 6.0, "the uncompensated payload shows: {status}");
-    assert_eq!(status["stopped"], false, "disarmed: nothing holds the arm");
-    // Payload then arming: the loop takes both from one queue, in this order.
+    assert_eq!(status["monitor"]["armed"], true, "{status}");
+    assert_eq!(
+        status["stopped"], false,
+        "declared: the payload is tolerated"
+    );
+    // The payload applied: the mode ends in the same loop cycle.
     call(&mut c, Command::ApplyPayload { mass, com })
         .await
         .unwrap();
-    call(
-        &mut c,
-        Command::Collision {
-            action: fri_api::protocol::CollisionAction::Arm,
-            thresholds: None,
-            gains: None,
-            reaction: None,
-            pause_s: None,
-        },
-    )
-    .await
-    .unwrap();
+    let status = call(&mut c, Command::Status).await.unwrap();
+    assert!(status["unknown_payload"].is_null(), "{status}");
     let e = call(
         &mut c,
         Command::EstimatePayload {
@@ -435,17 +422,10 @@ async fn disarm_grasp_apply_arm_and_a_contact_stops_the_arm() {
     let status = call(&mut c, Command::Status).await.unwrap();
     assert_eq!(status["stopped"], true, "the arm is held: {status}");
     // The watch is another connection: its events are not ordered with this reply.
-    wait_event(&events, "stopped by the collision", |e, d| {
-        e == "stopped" && d["reason"] == "collision"
-    })
-    .await;
+    wait_stopped_by_collision(&events).await;
     {
+        let collisions = collision_times(&events);
         let evs = events.lock().unwrap();
-        let collisions: Vec<f64> = evs
-            .iter()
-            .filter(|(k, _)| k == "collision")
-            .map(|(_, d)| d["time_s"].as_f64().unwrap())
-            .collect();
         assert!(
             !collisions.is_empty() && collisions.iter().all(|t| *t > 3.9),
             "only the contact is a collision: {collisions:?}"

@@ -26,7 +26,7 @@ use tokio::sync::watch;
 
 use super::plots::{self, Marker, Panel, Series, Threshold};
 use fri_api::client::Client;
-use fri_api::protocol::{CollisionAction, Command, RecordKind};
+use fri_api::protocol::{Command, RecordKind};
 use fri_service::config::{Config, ReactionMode};
 use fri_service::service::RunningService;
 use mock_robot::server::{ServerConfig, TimingMode};
@@ -182,8 +182,9 @@ fn demo_config(dir: &Path) -> Config {
     // previous one stopped: a 0.1 s resync binds the new one at its first datagram (with the
     // default 1 s its first 0.8 s would go unanswered and the log would start late).
     c.fri.resync_after_s = 0.1;
-    // The payload is unknown until estimated: report only, arm after the estimate.
-    c.observer.armed = false;
+    // Armed throughout (the default); the payload is declared unknown before it is attached.
+    // Report only: the free motion is the controller's own program, which the service does not
+    // hold, and every contact is to be counted.
     c.observer.thresholds = [THRESHOLD_NM; 7];
     c.reaction.policy = ReactionMode::Report;
     c
@@ -293,6 +294,19 @@ async fn phases(
         format!("[2/4] payload attached ({PAYLOAD_MASS} kg at (0, 0, 0.119) m); estimating ..."),
     );
     let before = current_cycle(&mut client).await?;
+    // Declared unknown before the grasp: the monitor stays armed and tolerates only what a
+    // plausible flange load explains (docs/collision-detection.md §8).
+    let declared = client
+        .call(
+            Command::ExpectPayload {
+                max_mass: None,
+                max_radius: None,
+                end: None,
+            },
+            |_, _| {},
+        )
+        .await?
+        .map_err(|e| anyhow::anyhow!("expect-payload failed: {}", e.message))?;
     // The same robot carries on: the tare's noise, drift and estimate are independent draws.
     let (mut robot, _) = driver
         .join()
@@ -321,6 +335,23 @@ async fn phases(
         )
         .await?
         .map_err(|e| anyhow::anyhow!("estimation failed: {}", e.message))?;
+    // A collision would have aborted the estimate; the monitor was armed from the declaration
+    // on, and the applied estimate ended the unknown-payload mode.
+    let after = client
+        .call(Command::Status, |_, _| {})
+        .await?
+        .map_err(|e| anyhow::anyhow!("status failed: {}", e.message))?;
+    let armed = declared["unknown_payload"].is_object()
+        && after["monitor"]["armed"] == true
+        && after["unknown_payload"].is_null();
+    say(
+        opts,
+        if armed {
+            "      estimated with the monitor ARMED throughout (payload declared unknown, no collision; estimate applied)"
+        } else {
+            "      WARNING: the monitor was not armed throughout the estimate"
+        },
+    );
     let truth = driver
         .join()
         .ok()
@@ -410,19 +441,6 @@ async fn phases(
         opts,
         "[3/4] free motion, contacts at 1, 8, 17 s; monitor armed with the estimate ...",
     );
-    client
-        .call(
-            Command::Collision {
-                action: CollisionAction::Arm,
-                thresholds: None,
-                gains: None,
-                reaction: None,
-                pause_s: None,
-            },
-            |_, _| {},
-        )
-        .await?
-        .map_err(|e| anyhow::anyhow!("arming failed: {}", e.message))?;
     let log = opts.out_dir.join("free-motion.csv");
     let log_abs = if log.is_absolute() {
         log.clone()

@@ -67,4 +67,14 @@ pub enum ConfigError {
     /// Wrench-estimation damping not finite or negative.
     #[error("damping {0} must be finite and non-negative")]
     Damping(f64),
+    /// Bounds of a plausible flange load not finite or not positive.
+    #[error(
+        "flange-load bounds must be finite and positive: maximum mass {max_mass_kg} kg, radius {radius_m} m"
+    )]
+    FlangeLoad {
+        /// Largest payload mass \[kg\].
+        max_mass_kg: f64,
+        /// Radius around the flange \[m\].
+        radius_m: f64,
+    },
 }

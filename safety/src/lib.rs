@@ -9,6 +9,8 @@
 //! - [`isolation`]: isolated link and damped least-squares contact wrench.
 //! - [`reaction::ReactionSupervisor`]: stop / pause-then-resume / wait-for-operator requests.
 //! - [`monitor::CollisionMonitor`]: all of the above in one per-cycle call.
+//! - [`payload_tolerance::PayloadTolerance`]: detection against the predicted torque of a
+//!   payload declared unknown (grasp and estimate with the monitor armed).
 //!
 //! Units: SI (rad, rad/s, Nm, N, kg, m, s). Joints and links are 0-based in code.
 
@@ -22,6 +24,7 @@ pub mod isolation;
 pub mod monitor;
 pub mod observer;
 pub mod payload;
+pub mod payload_tolerance;
 pub mod reaction;
 pub mod velocity;
 
@@ -36,5 +39,8 @@ pub use friction::JointFriction;
 pub use monitor::{CollisionMonitor, DEFAULT_WARMUP_S, MonitorConfig, MonitorOutput};
 pub use observer::{MomentumObserver, ObserverInput, ObserverOutput, ObserverStatus};
 pub use payload::PayloadCompensation;
+pub use payload_tolerance::{
+    FlangeLoadBounds, LoadSample, PayloadHypothesis, PayloadTolerance, fit_hypothesis,
+};
 pub use reaction::{ReactionPolicy, ReactionRequest, ReactionState, ReactionSupervisor, StopCause};
 pub use velocity::{VelocityEstimator, VelocityFilter};

@@ -208,6 +208,18 @@ impl<const N: usize> CollisionMonitor<N> {
 
     /// Processes one sample.
     pub fn step(&mut self, input: &ObserverInput<N>) -> MonitorOutput<N> {
+        self.step_with(input, |_, observed, _| observed.residual)
+    }
+
+    /// Processes one sample; the detector (and isolation) sees `explain(input, observer output,
+    /// static thresholds)` \[Nm\] instead of the observer's residual, e.g. the part of it an
+    /// unknown payload does not explain ([`crate::payload_tolerance::PayloadTolerance`]). Called
+    /// only when the detector runs (residual updated, warm-up over).
+    pub fn step_with(
+        &mut self,
+        input: &ObserverInput<N>,
+        explain: impl FnOnce(&ObserverInput<N>, &ObserverOutput<N>, &SVector<f64, N>) -> SVector<f64, N>,
+    ) -> MonitorOutput<N> {
         let observed = self.observer.step(input);
         let mut detection = None;
         let mut onset = None;
@@ -216,8 +228,9 @@ impl<const N: usize> CollisionMonitor<N> {
             self.warmup_left -= 1;
         }
         if observed.status.residual_updated() && !warming {
+            let residual = explain(input, &observed, &self.detector.config().thresholds_nm);
             let mut d = self.detector.update(
-                &observed.residual,
+                &residual,
                 &observed.velocity,
                 observed.cycle,
                 observed.time_s,
@@ -228,7 +241,7 @@ impl<const N: usize> CollisionMonitor<N> {
                         self.observer.model(),
                         &mut self.wrench_data,
                         &input.q,
-                        &observed.residual,
+                        &residual,
                         N - 1,
                         &self.contact_point,
                         self.wrench_damping,

@@ -69,6 +69,21 @@ pub enum Command {
     },
     /// Remove the applied payload (persisted).
     ClearPayload,
+    /// Declare the payload unknown (before grasping it): the monitor stays armed and tolerates
+    /// only what a plausible static flange load explains; `estimate-payload --apply`,
+    /// `apply-payload` or `clear-payload` end it, or `end`.
+    ExpectPayload {
+        /// Largest plausible payload mass, kg (default `unknown_payload.max_mass_kg`).
+        #[serde(default)]
+        max_mass: Option<f64>,
+        /// Radius around the flange point that holds the payload, m (default
+        /// `unknown_payload.max_radius_m`).
+        #[serde(default)]
+        max_radius: Option<f64>,
+        /// End the mode without applying a payload (the applied one, or none, is the payload).
+        #[serde(default)]
+        end: Option<bool>,
+    },
     /// Arm, disarm or tune the collision monitor.
     Collision {
         /// What to do.
@@ -122,6 +137,7 @@ impl Command {
         "estimate-payload",
         "apply-payload",
         "clear-payload",
+        "expect-payload",
         "collision",
         "stop",
         "resume",

@@ -154,6 +154,7 @@ fn every_known_name_parses_with_minimal_arguments() {
         r#"{"id":1,"cmd":"estimate-payload"}"#,
         r#"{"id":1,"cmd":"apply-payload","mass":1,"com":[0,0,0]}"#,
         r#"{"id":1,"cmd":"clear-payload"}"#,
+        r#"{"id":1,"cmd":"expect-payload"}"#,
         r#"{"id":1,"cmd":"collision","action":"show"}"#,
         r#"{"id":1,"cmd":"stop"}"#,
         r#"{"id":1,"cmd":"resume"}"#,

@@ -10,6 +10,7 @@
 mod collision;
 mod estimate;
 mod event;
+mod expect_payload;
 pub(crate) mod lenient;
 mod payload;
 mod progress;
@@ -32,6 +33,7 @@ pub use estimate::{
     Correction, EstimateMethod, EstimateResult, SourceShare, UncertaintyReport, UncertaintySource,
 };
 pub use event::{Event, RawEvent};
+pub use expect_payload::{DeclaredBy, ExpectPayloadResult, UnknownPayload};
 pub use payload::{AppliedPayload, PayloadResult};
 pub use progress::{Phase, Progress, Workflow};
 pub use record::RecordResult;

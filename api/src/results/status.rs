@@ -60,6 +60,11 @@ pub struct StatusResult {
     /// from daemons older than this field).
     #[serde(default)]
     pub state: Option<ServiceState>,
+    /// The payload is declared unknown (`expect-payload`): the armed monitor detects against
+    /// what a plausible flange load explains (`null`: the applied payload is the payload; absent
+    /// from older daemons).
+    #[serde(default)]
+    pub unknown_payload: Option<super::expect_payload::UnknownPayload>,
 }
 
 /// The FRI endpoint's snapshot as `status` reports it (enum values as their Rust names).

@@ -8,6 +8,7 @@ mod clear_payload;
 mod collision;
 mod error;
 mod estimate;
+mod expect_payload;
 mod format;
 mod lists;
 mod pattern;
@@ -32,6 +33,7 @@ pub use apply_payload::ApplyPayloadArgs;
 pub use clear_payload::ClearPayloadArgs;
 pub use collision::{CollisionArg, CollisionArgs};
 pub use estimate::EstimateArgs;
+pub use expect_payload::ExpectPayloadArgs;
 pub use pattern::{PatternArg, PatternArgs};
 pub use record::{RecordArg, RecordArgs};
 pub use resume::ResumeArgs;
@@ -103,6 +105,9 @@ pub enum OperatorCommand {
     /// Remove the applied payload from the collision observer; persisted.
     #[command(long_about = clear_payload::HELP)]
     ClearPayload(ClearPayloadArgs),
+    /// Declare the payload unknown before grasping it: the monitor stays armed (payload-tolerant).
+    #[command(long_about = expect_payload::HELP)]
+    ExpectPayload(ExpectPayloadArgs),
     /// Show, arm, disarm or tune the collision monitor.
     #[command(long_about = collision::HELP)]
     Collision(CollisionArgs),
@@ -146,6 +151,7 @@ pub fn run(cmd: &OperatorCommand, options: &ServiceOptions, out: &mut Stdout) ->
         O::EstimatePayload(a) => runner::run(a, socket, out),
         O::ApplyPayload(a) => runner::run(a, socket, out),
         O::ClearPayload(a) => runner::run(a, socket, out),
+        O::ExpectPayload(a) => runner::run(a, socket, out),
         O::Collision(a) => runner::run(a, socket, out),
         O::Stop(a) => runner::run(a, socket, out),
         O::Resume(a) => runner::run(a, socket, out),

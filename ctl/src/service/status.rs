@@ -21,7 +21,7 @@ cycles), the FRI state and quality with the KRL program's report, rejected datag
 reason, the controller's statistics of our answers, and per joint: positions (deg and rad), \
 velocities (deg/s), measured torques τ_J, model gravity, the controller's external-torque \
 estimate and the collision-observer residual (Nm). Then the applied payload (kg, mm in \
-frame 7), the stored tare and the monitor's thresholds (Nm) and gains (1/s).";
+frame 7), whether the payload is declared unknown (`expect-payload`: the armed monitor then tolerates a plausible flange load, fitted to the static samples taken since), the stored tare and the monitor's thresholds (Nm) and gains (1/s).";
 
 /// `fri-ctl status`.
 #[derive(Debug, Clone, Args)]
@@ -136,6 +136,9 @@ pub(super) fn print(r: &StatusResult, out: &mut dyn Write) -> io::Result<()> {
             p.frame
         )?,
         None => writeln!(out, "payload        none")?,
+    }
+    if let Some(u) = &r.unknown_payload {
+        super::expect_payload::print_mode(u, out)?;
     }
     match r.tare_samples {
         Some(n) => writeln!(out, "tare           {n} samples stored")?,

@@ -57,6 +57,8 @@ pub struct Config {
     pub motion: MotionConfig,
     /// Static-sample settling detection and averaging for `sample`, `tare`, `estimate-payload`.
     pub estimation: EstimationConfig,
+    /// What a payload declared unknown (`expect-payload`) may be.
+    pub unknown_payload: UnknownPayloadConfig,
     /// Operator socket.
     pub operator: OperatorConfig,
     /// Persistent state (applied payload, tare, calibration).
@@ -244,6 +246,26 @@ impl Default for EstimationConfig {
             drift_rate: 0.002,
             drift_prior_weight: 7.0,
             untared_offset_std: 0.2,
+        }
+    }
+}
+
+/// Default bounds of a payload declared unknown (`expect-payload` may narrow them per grasp).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct UnknownPayloadConfig {
+    /// Largest plausible payload mass, kg (default 7, the LWR 4+'s rating; range 0.01…7).
+    pub max_mass_kg: f64,
+    /// Radius around the flange point that holds the payload (its mass and centre of mass), m
+    /// (default 0.3; range 0.01…1).
+    pub max_radius_m: f64,
+}
+
+impl Default for UnknownPayloadConfig {
+    fn default() -> Self {
+        Self {
+            max_mass_kg: 7.0,
+            max_radius_m: 0.3,
         }
     }
 }

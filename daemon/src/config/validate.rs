@@ -90,6 +90,17 @@ impl Config {
             })?;
         }
         in_range("reaction.pause_s", self.reaction.pause_s, bounds::PAUSE_S)?;
+        let u = &self.unknown_payload;
+        in_range(
+            "unknown_payload.max_mass_kg",
+            u.max_mass_kg,
+            bounds::UNKNOWN_PAYLOAD_MASS,
+        )?;
+        in_range(
+            "unknown_payload.max_radius_m",
+            u.max_radius_m,
+            bounds::UNKNOWN_PAYLOAD_RADIUS,
+        )?;
         let m = &self.motion;
         for j in 0..JOINTS {
             // At most the joint's rated speed and the speed the set-point step limit allows.

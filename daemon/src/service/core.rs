@@ -30,9 +30,10 @@ pub(crate) const MOVE_RETRIES: u32 = 3;
 pub(crate) const MOVE_TIMEOUT_S: f64 = 120.0;
 /// Largest distance of the measured position from the target after a move, rad.
 pub(crate) const ARRIVAL_TOLERANCE: f64 = 0.005;
-/// During workflows that may carry an unknown (uncompensated) payload, a contact is a change of
-/// the residual since the previous static sample larger than this multiple of the threshold: the
-/// payload's own gravity torque changes by a few Nm between neighbouring ±7° poses.
+/// During workflows with the monitor disarmed, a contact is a change of the residual since the
+/// previous static sample larger than this multiple of the threshold: an unknown payload's own
+/// gravity torque changes by a few Nm between neighbouring ±7° poses. Armed, the monitor watches
+/// instead (`workflow::motion::residual_change`).
 pub(crate) const WORKFLOW_THRESHOLD_FACTOR: f64 = 2.0;
 /// Longest wait for the arm to reach the target after the set-point did, s (controller time).
 pub(crate) const ARRIVAL_TIMEOUT_S: f64 = 2.0;
@@ -52,6 +53,11 @@ pub(crate) struct Persistent {
     pub(crate) pause_s: f64,
     /// The settings stored by `collision configure` (`None`: the configuration file's).
     pub(crate) stored_monitor: Option<StoredMonitor>,
+    /// The payload is declared unknown (`expect-payload`; not persisted: a restarted service
+    /// detects against the applied payload, the safe direction).
+    pub(crate) unknown_payload: Option<super::workflow::expect_payload::UnknownPayloadState>,
+    /// Declarations of an unknown payload so far (numbers them).
+    pub(crate) declarations: u32,
 }
 
 /// The service (see the module documentation).
@@ -135,6 +141,8 @@ impl ServiceCore {
             reaction: config.reaction.policy,
             pause_s: config.reaction.pause_s,
             stored_monitor: monitor,
+            unknown_payload: None,
+            declarations: 0,
         };
         Self {
             config,

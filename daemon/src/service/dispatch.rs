@@ -60,6 +60,11 @@ impl Handler for Dispatcher {
                 reply(s.apply_payload(Some(AppliedPayload { mass, com })))
             }
             Command::ClearPayload => reply(s.apply_payload(None)),
+            Command::ExpectPayload {
+                max_mass,
+                max_radius,
+                end,
+            } => reply(s.expect_payload(max_mass, max_radius, end.unwrap_or(false))),
             Command::Collision {
                 action,
                 thresholds,

@@ -85,6 +85,11 @@ impl Replay {
             .is_ok()
     }
 
+    /// Queues an operator request for the loop (taken at the start of the next cycle).
+    pub fn send(&self, request: CycleRequest) -> bool {
+        self._requests.try_send(request).is_ok()
+    }
+
     /// Empties the event queue (the fan-out thread's job in the service).
     pub fn drain(&mut self) -> usize {
         self.events.try_iter().count()

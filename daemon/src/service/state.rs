@@ -135,6 +135,11 @@ impl Snapshot {
     pub fn moving(&self) -> bool {
         self.robot.flags & flags::MOVING != 0
     }
+
+    /// Whether the collision monitor's reaction is armed in this cycle.
+    pub fn monitor_armed(&self) -> bool {
+        self.robot.flags & flags::MONITOR_ARMED != 0
+    }
 }
 
 #[cfg(test)]

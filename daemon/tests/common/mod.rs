@@ -71,6 +71,15 @@ pub fn six_pose_tare() -> Command {
     }
 }
 
+/// `expect-payload` with the service's default bounds: the payload is about to be grasped.
+pub fn declare_payload_unknown() -> Command {
+    Command::ExpectPayload {
+        max_mass: None,
+        max_radius: None,
+        end: None,
+    }
+}
+
 /// `config` armed, reacting with a stop.
 pub fn armed_to_stop(mut config: Config) -> Config {
     config.observer.armed = true;
@@ -149,4 +158,23 @@ pub async fn wait_event(events: &Collected, what: &str, pred: impl Fn(&str, &Val
         assert!(std::time::Instant::now() < deadline, "no {what} event");
         tokio::time::sleep(Duration::from_millis(5)).await;
     }
+}
+
+/// Controller times of the collision events collected so far, s.
+pub fn collision_times(events: &Collected) -> Vec<f64> {
+    events
+        .lock()
+        .unwrap()
+        .iter()
+        .filter(|(k, _)| k == "collision")
+        .map(|(_, d)| d["time_s"].as_f64().unwrap())
+        .collect()
+}
+
+/// Waits until a `stopped` event with the collision as its reason was collected.
+pub async fn wait_stopped_by_collision(events: &Collected) {
+    wait_event(events, "stopped by the collision", |e, d| {
+        e == "stopped" && d["reason"] == "collision"
+    })
+    .await;
 }

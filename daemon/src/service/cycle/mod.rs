@@ -17,7 +17,11 @@
 //! - when the controller leaves command mode during a move it brakes the arm; the monitor
 //!   restarts each cycle until the arm is at rest, then warms up;
 //! - while the monitor warms up or waits, the published residual is NaN and flagged
-//!   [`flags::RESIDUAL_INVALID`], and no collision can be reported.
+//!   [`flags::RESIDUAL_INVALID`], and no collision can be reported;
+//! - while the payload is declared unknown ([`CycleRequest::ExpectPayload`]) the monitor stays
+//!   armed and its detector sees the residual no plausible flange load explains
+//!   (`safety::PayloadTolerance`, [`unknown_payload`]); applying a payload ends that in the same
+//!   cycle, so the new estimate is in use without a gap.
 
 use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
 
@@ -26,7 +30,10 @@ use fri::handshake::{HandshakeRequest, HandshakeStatus, KrlStrategy, RequestKind
 use fri::session::{DesiredCommand, Verdict};
 use fri::wire::{InterfaceState, Measurement, Quality};
 use nalgebra::SVector;
-use safety::{CollisionMonitor, ObserverInput, PayloadCompensation, ReactionRequest, StopCause};
+use safety::{
+    CollisionMonitor, FlangeLoadBounds, ObserverInput, PayloadCompensation, PayloadHypothesis,
+    PayloadTolerance, ReactionRequest, StopCause,
+};
 
 pub use super::output::CycleEvent;
 use super::output::{AbortReason, FriContext, ResyncReason, StopReason};
@@ -37,6 +44,7 @@ use fri_api::ipc::flags;
 mod command;
 mod publish;
 mod requests;
+mod unknown_payload;
 
 type V7 = SVector<f64, 7>;
 
@@ -82,6 +90,21 @@ pub enum CycleRequest {
     /// The service shuts down: brake any move, forget pending ones, and leave command mode
     /// through the handshake once the arm is at rest (no hold is latched: nothing to resume).
     Shutdown,
+    /// The payload is unknown (declaration number `declaration`): keep the monitor armed and
+    /// tolerate only what a plausible flange load within `bounds` explains; a new declaration
+    /// forgets the samples of the previous one.
+    ExpectPayload {
+        /// Number of this declaration (hypotheses of other declarations are refused).
+        declaration: u32,
+        /// What the unknown payload may be.
+        bounds: FlangeLoadBounds,
+    },
+    /// The payload hypothesis refitted after a static sample (ignored unless its declaration
+    /// is the active one).
+    PayloadHypothesis(PayloadHypothesis<7>),
+    /// The operator ends the unknown-payload mode without applying a payload: the applied
+    /// payload (or none) is the payload again.
+    EndExpectPayload,
 }
 
 /// Settings of the processor.
@@ -143,6 +166,14 @@ pub struct CycleProcessor {
     last_residual: V7,
     observer_fault: bool,
     collision_now: bool,
+    /// The monitor's view of a payload declared unknown (boxed: two robot models inside).
+    tolerance: Box<PayloadTolerance<7>>,
+    /// The last move's peak acceleration vector, rad/s², kept while the arm settles after it.
+    move_peak: V7,
+    /// The arm may still be moving after the last commanded move (until it is at rest).
+    settling_after_move: bool,
+    /// Largest joint speed of the previous cycle, rad/s.
+    last_speed: f64,
 }
 
 impl std::fmt::Debug for CycleProcessor {
@@ -163,6 +194,7 @@ impl CycleProcessor {
         events: SyncSender<CycleEvent>,
     ) -> Self {
         monitor.set_armed(settings.armed);
+        let tolerance = Box::new(PayloadTolerance::new(monitor.observer().model()));
         Self {
             armed: settings.armed,
             settings,
@@ -190,6 +222,10 @@ impl CycleProcessor {
             last_residual: V7::zeros(),
             observer_fault: false,
             collision_now: false,
+            tolerance,
+            move_peak: V7::zeros(),
+            settling_after_move: false,
+            last_speed: 0.0,
         }
     }
 
@@ -211,6 +247,16 @@ impl CycleProcessor {
     /// Whether the collision reaction is armed.
     pub fn is_armed(&self) -> bool {
         self.armed
+    }
+
+    /// Whether the payload is declared unknown (the monitor detects against its predicted torque).
+    pub fn payload_unknown(&self) -> bool {
+        self.tolerance.is_active()
+    }
+
+    /// The monitor's view of the unknown payload (hypothesis, last fit, allowance).
+    pub fn payload_tolerance(&self) -> &PayloadTolerance<7> {
+        &self.tolerance
     }
 
     /// Whether a commanded move is running or pending.
@@ -263,7 +309,24 @@ impl CycleProcessor {
         let gravity = V7::from(msr.data.gravity);
         let mut input = ObserverInput::new(q, tau, dt);
         input.controller_gravity = Some(gravity);
-        let out = self.monitor.step(&input);
+        self.follow_motion_for_tolerance();
+        let applied = self
+            .payload
+            .as_ref()
+            .map_or_else(nalgebra::Vector4::zeros, |p| p.gravity_parameters());
+        let tolerance = &mut self.tolerance;
+        let out = self
+            .monitor
+            .step_with(&input, |input, observed, thresholds| {
+                tolerance.contact_residual(
+                    &input.q,
+                    &observed.velocity,
+                    &observed.residual,
+                    &applied,
+                    thresholds,
+                )
+            });
+        self.last_speed = out.observer.velocity.amax();
         self.residual_valid = out.live && self.rest_wait.is_none();
         self.last_residual = out.observer.residual;
         self.observer_fault = out.observer.status.fault().is_some();
@@ -274,7 +337,7 @@ impl CycleProcessor {
             && self.armed
         {
             let mut residual = [0.0; 7];
-            residual.copy_from_slice(e.residual.as_slice());
+            residual.copy_from_slice(self.reported_residual(&e.residual).as_slice());
             self.emit(CycleEvent::Collision(CollisionMessage {
                 cycle: self.cycle,
                 time_s: self.time_s,

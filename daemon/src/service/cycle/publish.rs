@@ -36,6 +36,9 @@ impl CycleProcessor {
         if self.resume_when_clear {
             f |= flags::RESUME_PENDING;
         }
+        if self.tolerance.is_active() {
+            f |= flags::PAYLOAD_UNKNOWN;
+        }
         let mut qd = [0.0; 7];
         qd.copy_from_slice(velocity.as_slice());
         // An unsynchronised observer's value is not published: NaN, flagged.

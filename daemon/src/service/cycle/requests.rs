@@ -56,8 +56,22 @@ impl CycleProcessor {
                     // reports it as a fault); the operator side validated it already.
                     if self.monitor.set_payload(compensation).is_ok() {
                         self.payload = p;
+                        // The payload is known again: from the next step on the monitor
+                        // detects against it (the observer moves its residual at once).
+                        self.tolerance.end();
                     }
                 }
+                CycleRequest::ExpectPayload {
+                    declaration,
+                    bounds,
+                } => {
+                    // The operator side validated the bounds; invalid ones change nothing.
+                    let _ = self.tolerance.declare(declaration, bounds);
+                }
+                CycleRequest::PayloadHypothesis(h) => {
+                    self.tolerance.set_hypothesis(h);
+                }
+                CycleRequest::EndExpectPayload => self.tolerance.end(),
                 CycleRequest::Arm(on) => {
                     // Arming starts from a live reaction whatever happened while disarmed.
                     self.monitor.set_armed(on);
@@ -113,7 +127,7 @@ impl CycleProcessor {
                 let reason = match cause {
                     StopCause::Collision(e) => {
                         let mut residual = [0.0; 7];
-                        residual.copy_from_slice(e.residual.as_slice());
+                        residual.copy_from_slice(self.reported_residual(&e.residual).as_slice());
                         StopReason::Collision {
                             link: (e.isolated_link + 1) as u32,
                             time_s: self.time_s,

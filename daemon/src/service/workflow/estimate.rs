@@ -34,6 +34,7 @@ impl ServiceCore {
         events: &EventSink,
     ) -> Result<EstimateResult, OperatorError> {
         let _guard = self.busy()?;
+        self.expect_payload_when_unexplained().await?;
         let tare = self.persistent(|s| s.tare.clone());
         // A stored tare fixes the pattern: by default the estimate runs at the tare's poses (a
         // retry after an abort must not centre on wherever the arm stopped), and a pattern

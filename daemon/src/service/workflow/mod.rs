@@ -6,6 +6,7 @@
 pub mod acquire;
 pub mod collision;
 pub mod estimate;
+pub mod expect_payload;
 pub mod motion;
 pub mod payload;
 pub mod poses;

@@ -33,7 +33,11 @@ impl ServiceCore {
                 format!("payload applied but not persisted: {e}"),
             )
         })?;
-        self.persistent(|s| s.payload = p);
+        // The loop ended the unknown-payload mode with this payload (same request).
+        self.persistent(|s| {
+            s.payload = p;
+            s.unknown_payload = None;
+        });
         if let Some(ipc) = &self.ipc {
             let latest = self.shared.latest();
             ipc.payload(&IpcPayload {

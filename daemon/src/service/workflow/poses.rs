@@ -124,6 +124,7 @@ impl ServiceCore {
                 ..progress(Phase::Sampled)
             };
             events.event(&Event::Progress(done)).await;
+            self.unknown_payload_sampled(&sample.sample);
             samples.push(sample);
         }
         events

@@ -52,6 +52,7 @@ impl ServiceCore {
             payload: payload.map(|p| applied(&p)),
             tare_samples: tare,
             monitor,
+            unknown_payload: self.unknown_payload_status(),
         }
     }
 }

@@ -4,7 +4,7 @@
 //! the reported σ.
 //!
 //! `cargo run --release -p fri-service --example estimate_seeds -- [--seeds 30] [--first 1]
-//! [--mass 3.028] [--gap-s 5]` prints one JSON line per seed, then a summary: RMS error of mass
+//! [--mass 3.028] [--gap-s 5] [--drift 0.002]` prints one JSON line per seed, then a summary: RMS error of mass
 //! and CoM, RMS of error/σ per component, ±2σ coverage, and the median robot time by phase.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -21,6 +21,7 @@ struct Args {
     first: u64,
     mass: f64,
     gap_s: f64,
+    drift: Option<f64>,
 }
 
 fn args() -> anyhow::Result<Args> {
@@ -29,6 +30,7 @@ fn args() -> anyhow::Result<Args> {
         first: 1,
         mass: 3.028,
         gap_s: 5.0,
+        drift: None,
     };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
@@ -38,7 +40,10 @@ fn args() -> anyhow::Result<Args> {
             "--first" => a.first = value.parse()?,
             "--mass" => a.mass = value.parse()?,
             "--gap-s" => a.gap_s = value.parse()?,
-            _ => bail!("unknown argument {flag} (--seeds N, --first N, --mass KG, --gap-s S)"),
+            "--drift" => a.drift = Some(value.parse()?),
+            _ => bail!(
+                "unknown argument {flag} (--seeds N, --first N, --mass KG, --gap-s S, --drift NM_PER_SQRT_S)"
+            ),
         }
     }
     Ok(a)
@@ -55,7 +60,7 @@ async fn until_connected<R: serde::de::DeserializeOwned>(
             Err(e) if e.message.contains("no measurement") || e.message.contains("not ready") => {
                 tokio::time::sleep(Duration::from_millis(50)).await;
             }
-            Err(e) => bail!("{}", e.message),
+            Err(e) => bail!("{} ({:?}, cause {:?})", e.message, e.code, e.cause),
         }
     }
     bail!("the service never saw the controller")
@@ -85,6 +90,9 @@ async fn one(seed: u64, a: &Args) -> anyhow::Result<Outcome> {
         ..SimulationConfig::default()
     };
     sim.payload.mass_kg = a.mass;
+    if let Some(d) = a.drift {
+        sim.sensors.torque_drift_nm_per_sqrt_s = d;
+    }
     sim.payload.attached_at_start = false;
     let robot = mock_robot::spawn_new(sim, ServerConfig::loopback(service.fri, mode))?;
     let mut client = service.client().await?;

@@ -7,7 +7,7 @@
 
 use dynamics::{LWR4_PICK_POSE_RAD, Model, lwr4};
 use estimator::error_model::{PlannedSample, predict_modelled};
-use estimator::poses::{Criterion, Nominal, optimize, paper_pattern};
+use estimator::poses::{Criterion, Nominal, centred, optimize, paper_pattern};
 use nalgebra::SVector;
 use trajectory::double_s::DoubleS;
 
@@ -189,6 +189,10 @@ fn main() {
                         optimize(&model, &c, a, 9, Criterion::A, 256, &nominal).unwrap(),
                     ),
                 ];
+                let centred = centred(&model, &c, a, 10, 256, &nominal).unwrap();
+                let designs = designs
+                    .into_iter()
+                    .chain([("centred", centred[1..].to_vec())]);
                 for (name, poses) in designs {
                     let mut seq = vec![c];
                     seq.extend(tour(&c, &poses, false, p));

@@ -380,6 +380,7 @@ pub fn estimate_modelled<const N: usize>(
     };
     let mut sem2 = [SVector::zeros(), pooled(&ev_loaded)];
     let mut increments = revisit_increments(loaded, &ev_loaded);
+
     let (tared, offset_std, correction) = match reference {
         Reference::Tare(tare) => {
             validate(tare, &options.static_check)?;
@@ -392,13 +393,8 @@ pub fn estimate_modelled<const N: usize>(
         }
         Reference::Controller { offset_std } => (false, offset_std, Correction::None),
     };
-    let measured_q =
-        (!increments.is_empty()).then(|| increments.iter().sum::<f64>() / increments.len() as f64);
     let prior_q = drift.rate * drift.rate;
-    let q = ((drift.weight * prior_q + increments.iter().sum::<f64>())
-        / (drift.weight + increments.len() as f64))
-        .max(0.0);
-
+    let (measured_q, q) = pooled_drift(&increments, prior_q, drift.weight);
     let (design, joints) = design(model, &obs, tared, offset_std, q, &sem2)?;
     // the regressor's own conditioning (whitening rescales it), and its rank check
     let mut data = Data::new(model);
@@ -598,13 +594,56 @@ fn evidence_of<const N: usize>(
         .collect()
 }
 
-/// Unbiased single-increment estimates of q, (Δ² − s²_a − s²_b)/|t_b − t_a| per joint, for
-/// every pair of samples at the same pose within one phase (the payload torque cancels; what is
-/// left is drift and averaging noise; the pose difference is taken up by g_ctrl).
+/// One measured drift increment: the unbiased single-increment estimate of q,
+/// (Δ² − s²_a − s²_b)/Δt (Nm²/s), its interval Δt (s) and noise variance s²_a + s²_b (Nm²).
+#[derive(Debug, Clone, Copy)]
+struct Increment {
+    q: f64,
+    dt: f64,
+    noise: f64,
+}
+
+/// The drift intensity measured by the increments alone (None without any) and pooled with the
+/// prior, Nm²/s. The single-increment estimate has variance 2(qΔt + s²)²/Δt², so each increment
+/// weighs (qΔt / (qΔt + s²))² ≤ 1 relative to a long, noise-free one: a revisit seconds apart
+/// counts almost fully, two samples a fraction of a second apart (a pose sampled twice in place)
+/// barely — their difference is noise, and dividing it by a short Δt would let a small
+/// misjudgement of the noise swamp the drift. `weight` is the prior's weight in full increments.
+/// The weights depend on q itself: iterated from the prior to the fixed point.
+fn pooled_drift(increments: &[Increment], prior_q: f64, weight: f64) -> (Option<f64>, f64) {
+    let pool = |reference: f64| {
+        let r = reference.max(1e-14);
+        let w = |i: &Increment| {
+            let signal = r * i.dt;
+            (signal / (signal + i.noise)).powi(2)
+        };
+        let sw: f64 = increments.iter().map(w).sum();
+        let swq: f64 = increments.iter().map(|i| w(i) * i.q).sum();
+        let measured = (sw > 0.0).then(|| swq / sw);
+        let q = ((weight * prior_q + swq) / (weight + sw)).max(0.0);
+        (measured, if q.is_finite() { q } else { prior_q })
+    };
+    let mut q = prior_q;
+    let mut out = pool(q);
+    for _ in 0..50 {
+        // the measured value sets the weights when the prior is off (a prior of weight 0 too)
+        let next = out.0.map_or(out.1, |m| m.max(out.1)).max(1e-14);
+        if (next - q).abs() <= 1e-6 * q {
+            break;
+        }
+        q = next;
+        out = pool(q);
+    }
+    out
+}
+
+/// The drift increments of every pair of samples at the same pose within one phase (the
+/// payload torque cancels; what is left is drift and averaging noise; the pose difference is
+/// taken up by g_ctrl), one per joint.
 fn revisit_increments<const N: usize>(
     samples: &[StaticSample<N>],
     evidence: &[SampleEvidence<N>],
-) -> Vec<f64> {
+) -> Vec<Increment> {
     let mut out = Vec::new();
     for a in 0..samples.len() {
         for b in a + 1..samples.len() {
@@ -616,7 +655,11 @@ fn revisit_increments<const N: usize>(
             let d = samples[b].delta_tau() - samples[a].delta_tau();
             for j in 0..N {
                 let noise = evidence[a].tau_sem[j].powi(2) + evidence[b].tau_sem[j].powi(2);
-                out.push((d[j] * d[j] - noise) / dt);
+                out.push(Increment {
+                    q: (d[j] * d[j] - noise) / dt,
+                    dt,
+                    noise,
+                });
             }
         }
     }

@@ -198,6 +198,18 @@ impl ServiceCore {
     }
 
     /// The controller's view in its newest measurement (endpoint snapshot), if any.
+    /// The service's and the controller's clocks now (the latest state and measurement).
+    pub(crate) fn clocks(&self) -> Option<crate::persistence::Clocks> {
+        let s = self.fri_state.as_ref().map(|f| f())?;
+        let latest = self.shared.latest()?;
+        (s.valid && s.measurement.interface.timestamp.is_finite()).then(|| {
+            crate::persistence::Clocks {
+                service_s: latest.robot.time_s,
+                controller_s: s.measurement.interface.timestamp,
+            }
+        })
+    }
+
     pub(crate) fn fri_context(&self) -> Option<FriContext> {
         let s = self.fri_state.as_ref().map(|f| f())?;
         s.valid.then(|| FriContext::of(&s.measurement))

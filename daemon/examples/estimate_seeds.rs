@@ -150,10 +150,20 @@ fn median(mut v: Vec<f64>) -> f64 {
 async fn main() -> anyhow::Result<()> {
     let a = args()?;
     let mut all = Vec::new();
+    let mut reruns = 0;
     for seed in a.first..a.first + a.seeds {
-        let o = one(seed, &a)
-            .await
-            .with_context(|| format!("seed {seed}"))?;
+        // A run that fails on a wall-clock timeout (a loaded machine slows the lockstep
+        // controller) is run once more, and counted.
+        let o = match one(seed, &a).await {
+            Ok(o) => o,
+            Err(e) => {
+                eprintln!("seed {seed} failed ({e:#}); running it again");
+                reruns += 1;
+                one(seed, &a)
+                    .await
+                    .with_context(|| format!("seed {seed}"))?
+            }
+        };
         let t = o.estimate.timing.unwrap_or_default();
         println!(
             "{}",
@@ -171,6 +181,7 @@ async fn main() -> anyhow::Result<()> {
     let n = all.len() as f64;
     let cover =
         |z: &dyn Fn(&Outcome) -> f64| all.iter().filter(|o| z(o).abs() <= 2.0).count() as f64 / n;
+    println!("runs repeated after a failure: {reruns}");
     println!(
         "seeds {}  mass RMS error {:.4} % ({:.2} g)  RMS error/σ {:.2}  ±2σ coverage {:.0} %",
         all.len(),

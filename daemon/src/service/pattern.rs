@@ -95,7 +95,10 @@ mod tests {
         assert_eq!(a.len(), 10);
         assert_eq!(a[0], around);
         assert!(a.iter().all(|p| p[0] == around[0]));
-        assert_eq!(a, poses(PatternKind::Centred, &model, &around, 10, 5.0).unwrap());
+        assert_eq!(
+            a,
+            poses(PatternKind::Centred, &model, &around, 10, 5.0).unwrap()
+        );
     }
 
     #[test]

@@ -208,8 +208,8 @@ impl Averager {
         self.last_t = s.time_s;
         self.st += t;
         self.stt += t * t;
-        for j in 0..7 {
-            self.stq[j] += t * (s.q[j] - q0[j]);
+        for (acc, (q, q0)) in self.stq.iter_mut().zip(s.q.iter().zip(&q0)) {
+            *acc += t * (q - q0);
         }
     }
 

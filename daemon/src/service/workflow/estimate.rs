@@ -13,11 +13,11 @@ use estimator::estimate::{Correction as EstimatorCorrection, Method, PayloadEsti
 
 use crate::config::EstimationConfig;
 
+use super::poses::PatternRequest;
 use crate::ipc::PayloadEstimate as IpcPayload;
 use crate::operator::server::EventSink;
 use crate::persistence::{AppliedPayload, Clocks, StaticSample, Tare};
 use crate::service::core::{ServiceCore, err};
-use super::poses::PatternRequest;
 use crate::service::pattern::PatternKind;
 use fri_api::protocol::{ErrorCode, OperatorError};
 
@@ -104,7 +104,9 @@ impl ServiceCore {
             None if tare.is_some() && !tare_matches => {
                 return Err(err(
                     ErrorCode::Failed,
-                    format!("the poses reached differ from the stored tare's by more than {tolerance} rad: run `tare` again, or pass use_tare=false"),
+                    format!(
+                        "the poses reached differ from the stored tare's by more than {tolerance} rad: run `tare` again, or pass use_tare=false"
+                    ),
                 ));
             }
             Some(u) => u,

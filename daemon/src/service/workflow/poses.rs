@@ -121,7 +121,12 @@ impl ServiceCore {
             )
             .with_cause(Cause::Held));
         }
-        let start_q = latest.robot.q;
+        // Where the arm rests: the controller's set-point when the arm holds it (a loaded arm
+        // sags a little from it), else the measured pose.
+        let start_q = self
+            .commanded_q()
+            .filter(|c| (0..7).all(|j| (c[j] - latest.robot.q[j]).abs() < 1e-3))
+            .unwrap_or(latest.robot.q);
         let around = request.around.unwrap_or(start_q);
         let count = request
             .poses
@@ -164,16 +169,38 @@ impl ServiceCore {
         };
         let mut baseline = Some(latest.robot.residual);
         let visited = self
-            .visit(&mut run, &mut baseline, latest.robot.time_s, workflow, events)
+            .visit(
+                &mut run,
+                &mut baseline,
+                latest.robot.time_s,
+                workflow,
+                events,
+            )
             .await;
         run.clocks.1 = self.clocks();
         let result = match visited {
-            Ok(()) => self.go_home(&mut run, start_q, baseline, workflow, events).await,
+            Ok(()) => {
+                self.go_home(&mut run, start_q, baseline, workflow, events)
+                    .await
+            }
             Err(e) => Err(self.after_abort(e, start_q, baseline, workflow).await),
         };
         run.timing.total_s = self.now_or(latest.robot.time_s) - latest.robot.time_s;
         self.release().await;
         result.map(|()| run)
+    }
+
+    /// Whether the arm rests at `pose` already, measured or commanded (within
+    /// [`IN_PLACE_RAD`]): a move to the set-point itself has length zero, and a loaded arm held
+    /// by the controller may sag a little from it.
+    fn at_pose(&self, pose: &[f64; 7]) -> bool {
+        let off = |q: &[f64; 7]| (0..7).map(|j| (q[j] - pose[j]).abs()).fold(0.0, f64::max);
+        let measured = self
+            .shared
+            .latest()
+            .map_or(f64::INFINITY, |s| off(&s.robot.q));
+        let commanded = self.commanded_q().map_or(f64::INFINITY, |c| off(&c));
+        measured <= IN_PLACE_RAD || commanded <= IN_PLACE_RAD
     }
 
     /// The latest controller time, or `fallback`.
@@ -202,9 +229,14 @@ impl ServiceCore {
                 settle_s: None,
                 max_speed: None,
             };
-            let here = self.shared.latest().map_or(pose, |s| s.robot.q);
-            let off = (0..7).map(|j| (here[j] - pose[j]).abs()).fold(0.0, f64::max);
-            if off > IN_PLACE_RAD {
+            // A pose sampled again right away (the design replicates informative poses) is
+            // sampled in place: its set-point is already there, and a move of length zero is
+            // never seen moving.
+            // The same for a pose the arm already rests at, measured or commanded (a move to
+            // the set-point itself has length zero: a loaded arm held by the controller may sag
+            // a little from it).
+            let again = k > 0 && run.targets[k - 1] == pose;
+            if !again && !self.at_pose(&pose) {
                 events
                     .event(&Event::Progress(progress(Phase::Moving)))
                     .await;
@@ -217,7 +249,11 @@ impl ServiceCore {
                 .event(&Event::Progress(progress(Phase::Settling)))
                 .await;
             let (sample, settle_s) = self
-                .acquire(Acquire::Workflow, self.config.estimation.average_s, *baseline)
+                .acquire(
+                    Acquire::Workflow,
+                    self.config.estimation.average_s,
+                    *baseline,
+                )
                 .await?;
             *baseline = self.shared.latest().map(|s| s.robot.residual).or(*baseline);
             run.timing.settling_s += settle_s;
@@ -254,8 +290,7 @@ impl ServiceCore {
                 max_speed: None,
             }))
             .await;
-        let here = self.shared.latest().map_or(start_q, |s| s.robot.q);
-        if (0..7).all(|j| (here[j] - start_q[j]).abs() <= IN_PLACE_RAD) {
+        if self.at_pose(&start_q) {
             return Ok(());
         }
         let t = self.now_or(0.0);
@@ -295,15 +330,16 @@ impl ServiceCore {
                 "after a stop, a contact or a suspected contact the arm is held where it stopped and never moves by itself",
             ),
             Some(Cause::ControllerSilent { .. }) => Some("the controller is silent"),
-            _ if held_now => Some("the arm is held (stop or collision reaction) and never moves by itself"),
+            _ if held_now => {
+                Some("the arm is held (stop or collision reaction) and never moves by itself")
+            }
             _ => None,
         };
         if let Some(why) = why_not {
             e.message.push_str(&stay(why));
             return e;
         }
-        let here = self.shared.latest().map_or(start_q, |s| s.robot.q);
-        if (0..7).all(|j| (here[j] - start_q[j]).abs() <= IN_PLACE_RAD) {
+        if self.at_pose(&start_q) {
             e.message.push_str("; the arm is at its start pose");
             return e;
         }

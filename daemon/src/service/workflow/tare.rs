@@ -3,10 +3,10 @@
 
 use fri_api::results::{TareResult, Workflow};
 
+use super::poses::PatternRequest;
 use crate::operator::server::EventSink;
 use crate::persistence::Tare;
 use crate::service::core::{ServiceCore, err};
-use super::poses::PatternRequest;
 use crate::service::pattern::PatternKind;
 use fri_api::protocol::{ErrorCode, OperatorError};
 

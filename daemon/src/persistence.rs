@@ -121,6 +121,34 @@ pub struct Tare {
     /// estimate's after the controller restarted); absent in older files.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub taken_unix_s: Option<f64>,
+    /// The commanded pose of every sample, in the order driven, rad: an estimate visits them
+    /// in reverse (the tare's last samples and the estimate's first are nearest in time);
+    /// absent in older files (then the estimate recomputes the pattern).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub targets: Option<Vec<[f64; 7]>>,
+    /// The pattern and its increment (deg); absent in older files (paper, 7°).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pattern: Option<fri_api::pattern::PatternKind>,
+    /// The pattern's increment, deg; absent in older files.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub step_deg: Option<f64>,
+    /// The service's and the controller's clocks when the tare ended; absent in older files.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clock: Option<Clocks>,
+}
+
+/// One instant on the service's clock (`time_s` of the states and samples, counted from the
+/// controller's sequence, which restarts or skips unknown time across a controller restart or a
+/// new source) and on the controller's own (`intf.timestamp`), s. Two of them tell how much
+/// controller time passed between a tare and an estimate even when the service's clock could
+/// not count it.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Clocks {
+    /// The service's time, s.
+    pub service_s: f64,
+    /// The controller's timestamp, s.
+    pub controller_s: f64,
 }
 
 impl Tare {
@@ -335,6 +363,13 @@ mod tests {
             )],
             pattern_poses: Some(1),
             taken_unix_s: Some(1.8e9),
+            targets: Some(vec![[0.2; 7]]),
+            pattern: Some(fri_api::pattern::PatternKind::Centred),
+            step_deg: Some(5.0),
+            clock: Some(Clocks {
+                service_s: 12.0,
+                controller_s: 3600.5,
+            }),
         };
         store.save_tare(Some(&tare)).unwrap();
         assert_eq!(store.load_tare().unwrap(), Some(tare));

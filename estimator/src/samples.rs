@@ -310,6 +310,8 @@ pub fn read_csv<const N: usize, R: Read>(
 pub struct CsvColumns {
     /// `qd1..qdn` (rad/s).
     pub qd: bool,
+    /// `drift1..driftn` (rad, position change over the averaging window).
+    pub drift: bool,
     /// `time_s, window_s, settle_s, max_qd, tau_std1..n, tau_sem1..n` ([`SampleEvidence`]).
     pub evidence: bool,
 }
@@ -320,6 +322,7 @@ impl CsvColumns {
         let all = |f: fn(&StaticSample<N>) -> bool| !samples.is_empty() && samples.iter().all(f);
         CsvColumns {
             qd: all(|s| s.qd.is_some()),
+            drift: all(|s| s.drift.is_some()),
             evidence: all(|s| s.evidence.is_some()),
         }
     }
@@ -335,6 +338,9 @@ pub fn csv_header<const N: usize>(columns: CsvColumns) -> Vec<String> {
     if columns.qd {
         h.extend(vector("qd"));
     }
+    if columns.drift {
+        h.extend(vector("drift"));
+    }
     if columns.evidence {
         h.extend(EVIDENCE_SCALARS.map(str::to_owned));
         h.extend(vector("tau_std").chain(vector("tau_sem")));
@@ -342,8 +348,8 @@ pub fn csv_header<const N: usize>(columns: CsvColumns) -> Vec<String> {
     h
 }
 
-/// One static-sample CSV row in the column order of [`csv_header`] (rad, Nm, Nm, rad/s, s,
-/// s, s, rad/s, Nm, Nm), each value written in the shortest form that reads back exactly; a
+/// One static-sample CSV row in the column order of [`csv_header`] (rad, Nm, Nm, rad/s, rad,
+/// s, s, s, rad/s, Nm, Nm), each value written in the shortest form that reads back exactly; a
 /// group the sample lacks is left out.
 pub fn csv_row<const N: usize>(sample: &StaticSample<N>, columns: CsvColumns) -> Vec<String> {
     let cells = |v: &SVector<f64, N>| v.iter().map(|x| format!("{x}")).collect::<Vec<_>>();
@@ -353,6 +359,9 @@ pub fn csv_row<const N: usize>(sample: &StaticSample<N>, columns: CsvColumns) ->
         .collect();
     if let Some(qd) = sample.qd.as_ref().filter(|_| columns.qd) {
         row.extend(cells(qd));
+    }
+    if let Some(d) = sample.drift.as_ref().filter(|_| columns.drift) {
+        row.extend(cells(d));
     }
     if let Some(e) = sample.evidence.as_ref().filter(|_| columns.evidence) {
         row.extend([e.time_s, e.window_s, e.settle_s, e.max_qd].map(|x| format!("{x}")));

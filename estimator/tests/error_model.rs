@@ -6,8 +6,11 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use dynamics::{Data, InertialParameters, Model, compute_generalized_gravity, lwr4};
-use estimator::error_model::{DriftPrior, Reference, Source, estimate_modelled};
+use estimator::error_model::{
+    DriftPrior, PlannedSample, Reference, Source, estimate_modelled, predict_modelled,
+};
 use estimator::estimate::{EstimateOptions, estimate_direct};
+use estimator::poses::Nominal;
 use estimator::samples::{SampleEvidence, StaticSample};
 use nalgebra::{SVector, Vector3};
 use rand::{Rng, SeedableRng, rngs::StdRng};
@@ -62,12 +65,14 @@ impl Sensor {
 /// error is itself estimated from batch means (9 degrees of freedom).
 fn procedure(
     model: &Model<7>,
+    controller: &Model<7>,
     poses: &[SVector<f64, 7>],
     t0: f64,
     sensor: &mut Sensor,
     rng: &mut StdRng,
 ) -> Vec<StaticSample<7>> {
     let mut data = Data::new(model);
+    let mut data_c = Data::new(controller);
     let sem = NOISE / CYCLES.sqrt();
     let white = Normal::new(0.0, sem).unwrap();
     let chi = ChiSquared::new(BATCHES - 1.0).unwrap();
@@ -79,7 +84,9 @@ fn procedure(
             let bias = sensor.read(rng, t);
             let g = compute_generalized_gravity(model, &mut data, q);
             let tau = SVector::from_fn(|j, _| g[j] + bias[j] + rng.sample(white));
-            let mut s = StaticSample::new(*q, tau, g);
+            // the controller's gravity vector: its own model, without the payload
+            let g_ctrl = compute_generalized_gravity(controller, &mut data_c, q);
+            let mut s = StaticSample::new(*q, tau, g_ctrl);
             s.evidence = Some(SampleEvidence {
                 time_s: t,
                 window_s: CYCLES * 1e-3,
@@ -122,9 +129,9 @@ fn run(trials: usize, prior_rate: f64, seed: u64) -> Run {
             t: 0.0,
             rate: DRIFT,
         };
-        let tare = procedure(&robot, &poses, 0.0, &mut sensor, &mut rng);
+        let tare = procedure(&robot, &robot, &poses, 0.0, &mut sensor, &mut rng);
         let start = POSE_TIME * poses.len() as f64 + GAP;
-        let est = procedure(&loaded, &poses, start, &mut sensor, &mut rng);
+        let est = procedure(&loaded, &robot, &poses, start, &mut sensor, &mut rng);
         let prior = DriftPrior {
             rate: prior_rate,
             weight: 7.0,
@@ -215,4 +222,96 @@ fn revisits_measure_the_drift_rate_when_the_prior_is_wrong() {
     // a prior four times too small is mostly overruled: σ stays within 35 % of honest
     let m = rms(r.mass_z.iter().copied());
     assert!((0.8..=1.35).contains(&m), "RMS of mass error/σ = {m}");
+}
+
+#[test]
+fn the_prediction_before_moving_is_the_sigma_the_estimate_reports() {
+    // A centred plan: the centre first and last, the other poses in between; the estimate
+    // visits them in reverse order 5 s after the tare. With a prior that outweighs the
+    // revisits and no excess scatter, the estimate's σ (without the scatter share) is what
+    // `predict_modelled` gives for the same times before the robot moves.
+    let robot = lwr4();
+    let payload = InertialParameters::point_mass(MASS, Vector3::from(COM));
+    let loaded = robot.with_payload(&payload);
+    let mut poses = poses();
+    poses.pop();
+    let centre = SVector::<f64, 7>::from(dynamics::LWR4_PICK_POSE_RAD);
+    poses.insert(0, centre);
+    poses.push(centre);
+    let mut rng = StdRng::seed_from_u64(3);
+    let mut sensor = Sensor {
+        offset: [0.01; 7],
+        walk: [0.0; 7],
+        t: 0.0,
+        rate: DRIFT,
+    };
+    let tare = procedure(&robot, &robot, &poses, 0.0, &mut sensor, &mut rng);
+    let reversed: Vec<_> = poses.iter().rev().copied().collect();
+    let start = POSE_TIME * poses.len() as f64 + 5.0;
+    let est = procedure(&loaded, &robot, &reversed, start, &mut sensor, &mut rng);
+    let prior = DriftPrior {
+        rate: DRIFT,
+        weight: 1e9,
+    };
+    let (e, u) = estimate_modelled(
+        &robot,
+        &est,
+        Reference::Tare(&tare),
+        prior,
+        &EstimateOptions::default(),
+    )
+    .unwrap();
+    let modelled: f64 = u
+        .sources
+        .iter()
+        .filter(|s| s.source != Source::Scatter)
+        .map(|s| s.mass_std.powi(2))
+        .sum::<f64>()
+        .sqrt();
+    assert!(
+        (e.mass - MASS).abs() < 6.0 * e.mass_std,
+        "{} ± {}",
+        e.mass,
+        e.mass_std
+    );
+    let pooled = |s: &[StaticSample<7>]| {
+        SVector::<f64, 7>::from_fn(|j, _| {
+            (s.iter()
+                .map(|x| x.evidence.unwrap().tau_sem[j].powi(2))
+                .sum::<f64>()
+                / s.len() as f64)
+                .sqrt()
+        })
+    };
+    // one σ per joint for both phases in the prediction: the mean of the two pooled ones
+    let (pt, pl) = (pooled(&tare), pooled(&est));
+    let sem = SVector::<f64, 7>::from_fn(|j, _| ((pt[j].powi(2) + pl[j].powi(2)) / 2.0).sqrt());
+    let plan: Vec<PlannedSample<7>> = tare
+        .iter()
+        .map(|s| (s, false))
+        .chain(est.iter().map(|s| (s, true)))
+        .map(|(s, loaded)| PlannedSample {
+            q: s.q,
+            time_s: s.evidence.unwrap().time_s,
+            loaded,
+        })
+        .collect();
+    let nominal = Nominal {
+        mass: e.mass,
+        com: e.com,
+    };
+    let p = predict_modelled(&robot, &plan, &sem, DRIFT, 0.2, &nominal).unwrap();
+    let rel = (p.mass_std - modelled).abs() / modelled;
+    assert!(
+        rel < 0.05,
+        "predicted {} vs reported {modelled}",
+        p.mass_std
+    );
+    let drift = |s: &[estimator::error_model::SourceStd]| {
+        s.iter()
+            .find(|x| x.source == Source::Drift)
+            .unwrap()
+            .mass_std
+    };
+    assert!((drift(&p.sources) - drift(&u.sources)).abs() < 1e-6 * MASS);
 }

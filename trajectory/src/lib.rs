@@ -8,6 +8,7 @@
 //! - [`tour`]: the order of a set of targets with the least total move time (the pose
 //!   patterns of tare and estimate are sets).
 
+pub mod double_s;
 pub mod joint_move;
 pub mod quintic;
 pub mod tour;

@@ -22,10 +22,13 @@ pub struct PatternArgs {
     /// Number of poses: 2…100 (default: the service's `estimation.pattern_poses`).
     #[arg(long)]
     pub poses: Option<usize>,
-    /// Pattern increment, deg: 1…30 (default: the service's `estimation.pattern_step_deg`, 7).
+    /// Pattern increment, deg: 1…30 (default: the service's `estimation.pattern_step_deg`, or
+    /// the pattern's own: 5 for centred, 7 for paper and optimized).
     #[arg(long, value_name = "DEG")]
     pub step_deg: Option<f64>,
-    /// Pose pattern: the paper's ±step pattern or D-optimal poses in the same box.
+    /// Pose pattern (default: the service's `estimation.pattern`, centred): centred (the
+    /// centre first and last, D-optimal poses in the box between), the paper's ±step pattern,
+    /// or D-optimal poses in the box.
     #[arg(long, value_enum)]
     pub pattern: Option<PatternArg>,
 }
@@ -37,6 +40,8 @@ pub enum PatternArg {
     Paper,
     /// D-optimal poses.
     Optimized,
+    /// The centre first and last, D-optimal poses between.
+    Centred,
 }
 
 impl PatternArgs {
@@ -50,6 +55,7 @@ impl PatternArgs {
         self.pattern.map(|p| match p {
             PatternArg::Paper => PatternKind::Paper,
             PatternArg::Optimized => PatternKind::Optimized,
+            PatternArg::Centred => PatternKind::Centred,
         })
     }
 }

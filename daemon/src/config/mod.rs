@@ -203,7 +203,8 @@ impl Default for MotionConfig {
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct EstimationConfig {
-    /// Settled when every joint speed stays below this, rad/s (default 0.002).
+    /// Settled when every joint's mean velocity over the settle window (the least-squares slope
+    /// of its measured positions) stays below this, rad/s (default 2e-4).
     pub settle_velocity: f64,
     /// Settled when the torque standard deviation of every joint over the settle window is below
     /// this, Nm (default 0.15).
@@ -212,10 +213,14 @@ pub struct EstimationConfig {
     pub settle_window_s: f64,
     /// Upper bound of the wait for settling after a move, s (default 1, the paper's wait).
     pub settle_timeout_s: f64,
-    /// Averaging window of one static sample, s (default 0.5).
+    /// Averaging window of one static sample, s (default 0.25).
     pub average_s: f64,
-    /// Increment of the paper's pose pattern, degrees (default 7).
-    pub pattern_step_deg: f64,
+    /// Pose pattern of `tare` and `estimate-payload` when the request names none (default
+    /// centred).
+    pub pattern: fri_api::pattern::PatternKind,
+    /// Increment of the pose pattern, degrees (default: the pattern's own, 5 for centred and 7
+    /// for paper and optimized).
+    pub pattern_step_deg: Option<f64>,
     /// Number of poses of the pattern (default 10, as in the paper's Sec. VI-A).
     pub pattern_poses: usize,
     /// Drive back to the first pose at the end of a pattern and sample it again, so that the
@@ -235,12 +240,13 @@ pub struct EstimationConfig {
 impl Default for EstimationConfig {
     fn default() -> Self {
         Self {
-            settle_velocity: 0.002,
+            settle_velocity: 2e-4,
             settle_torque_std: 0.15,
             settle_window_s: 0.1,
             settle_timeout_s: 1.0,
-            average_s: 0.5,
-            pattern_step_deg: 7.0,
+            average_s: 0.25,
+            pattern: fri_api::pattern::PatternKind::Centred,
+            pattern_step_deg: None,
             pattern_poses: 10,
             revisit_first_pose: true,
             drift_rate: 0.002,

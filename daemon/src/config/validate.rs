@@ -162,11 +162,9 @@ impl Config {
             e.average_s,
             Range::new(cycle, 60.0, "s"),
         )?;
-        in_range(
-            "estimation.pattern_step_deg",
-            e.pattern_step_deg,
-            bounds::STEP_DEG,
-        )?;
+        if let Some(step) = e.pattern_step_deg {
+            in_range("estimation.pattern_step_deg", step, bounds::STEP_DEG)?;
+        }
         count_in_range("estimation.pattern_poses", e.pattern_poses, bounds::POSES)?;
         in_range(
             "estimation.drift_rate",

@@ -206,6 +206,27 @@ impl ServiceCore {
     }
 
     /// The controller's view in its newest measurement (endpoint snapshot), if any.
+    /// The controller's commanded joint positions (`cmdJntPos + cmdJntPosFriOffset`, where the
+    /// next move starts from), rad.
+    pub(crate) fn commanded_q(&self) -> Option<[f64; 7]> {
+        let s = self.fri_state.as_ref().map(|f| f())?;
+        let d = &s.measurement.data;
+        s.valid
+            .then(|| std::array::from_fn(|j| d.cmd_jnt_pos[j] + d.cmd_jnt_pos_fri_offset[j]))
+    }
+
+    /// The service's and the controller's clocks now (the latest state and measurement).
+    pub(crate) fn clocks(&self) -> Option<crate::persistence::Clocks> {
+        let s = self.fri_state.as_ref().map(|f| f())?;
+        let latest = self.shared.latest()?;
+        (s.valid && s.measurement.interface.timestamp.is_finite()).then_some(
+            crate::persistence::Clocks {
+                service_s: latest.robot.time_s,
+                controller_s: s.measurement.interface.timestamp,
+            },
+        )
+    }
+
     pub(crate) fn fri_context(&self) -> Option<FriContext> {
         let s = self.fri_state.as_ref().map(|f| f())?;
         s.valid.then(|| FriContext::of(&s.measurement))

@@ -32,7 +32,7 @@ impl Handler for Dispatcher {
                     around,
                     poses,
                     step_deg,
-                    pattern.unwrap_or_default(),
+                    pattern.unwrap_or(s.config.estimation.pattern),
                     &events,
                 )
                 .await,
@@ -49,7 +49,7 @@ impl Handler for Dispatcher {
                     around,
                     poses,
                     step_deg,
-                    pattern.unwrap_or_default(),
+                    pattern,
                     use_tare,
                     apply.unwrap_or(false),
                     &events,

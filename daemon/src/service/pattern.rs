@@ -4,13 +4,18 @@
 //!   configuration" (Sec. VI-A), as the project defines it (lwr4-model.md §4, the golden Q10 set
 //!   for 7°): q_k = around + step·u_k with u_kj = 2·frac(k·√p_j) − 1, k = 1..N;
 //! - `optimized`: N poses inside the same ±step box chosen D-optimally (greedy + exchange) for
-//!   the payload gravity parameters, which reaches the paper pattern's accuracy with fewer poses.
+//!   the payload gravity parameters, which reaches the paper pattern's accuracy with fewer poses;
+//! - `centred` (the default): the centre itself first, then N − 1 D-optimal poses of the ±step
+//!   box with joint 1 kept at the centre (`estimator::poses::centred`). A procedure samples the
+//!   centre first and again last: the drift revisit is the way home, and the tare and a later
+//!   estimate meet at the centre, their samples nearest in time (docs/estimation.md, "Pose
+//!   pattern, order and timing").
 //!
 //! Both are deterministic for the same inputs, so a tare and a later estimate visit the same
 //! poses. Every pose is clamped inside the joint limits.
 
 use dynamics::Model;
-use estimator::poses::{Criterion, Nominal, optimize, paper_pattern};
+use estimator::poses::{Criterion, Nominal, centred, optimize, paper_pattern};
 pub use fri_api::pattern::PatternKind;
 use nalgebra::SVector;
 
@@ -35,6 +40,14 @@ pub fn poses(
             spread,
             count,
             Criterion::D,
+            CANDIDATES,
+            &Nominal::default(),
+        )?,
+        PatternKind::Centred => centred(
+            model,
+            &center,
+            spread,
+            count,
             CANDIDATES,
             &Nominal::default(),
         )?,
@@ -72,6 +85,20 @@ mod tests {
                 assert_ne!(p, other);
             }
         }
+    }
+
+    #[test]
+    fn centred_pattern_starts_at_the_centre() {
+        let model = dynamics::lwr4();
+        let around = [0.0, 0.5, 0.0, -1.2, 0.0, 0.8, 0.0];
+        let a = poses(PatternKind::Centred, &model, &around, 10, 5.0).unwrap();
+        assert_eq!(a.len(), 10);
+        assert_eq!(a[0], around);
+        assert!(a.iter().all(|p| p[0] == around[0]));
+        assert_eq!(
+            a,
+            poses(PatternKind::Centred, &model, &around, 10, 5.0).unwrap()
+        );
     }
 
     #[test]

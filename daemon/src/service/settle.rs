@@ -1,8 +1,14 @@
 //! Static-sample acquisition: settling detection after a move and averaging of a window.
 //!
-//! Settled means that over the last `window` cycles every joint speed stayed below
-//! `max_velocity` and every joint torque's standard deviation stayed below `max_torque_std`;
-//! the caller bounds the wait (the paper waits 1 s). The average of q, τ_J and the controller's
+//! Settled means that over the last `window` cycles every joint's mean velocity — the
+//! least-squares slope of its measured positions over the window — stayed below `max_velocity`,
+//! and every joint torque's standard deviation below `max_torque_std`; the caller bounds the
+//! wait (the paper waits 1 s). The slope, not the per-cycle velocity: one encoder count
+//! (2π/2²¹ rad) within one 1 ms cycle is already 0.003 rad/s, so a per-cycle bound below that
+//! waits for the quantisation flicker to stop rather than for the arm to come to rest, while
+//! the slope over 0.1 s resolves 3·10⁻⁵ rad/s. A window mean of τ_J is biased by the link
+//! inertia times the change of velocity over the window (M·Δq̇/T: 4 kg·m² × 2·10⁻⁴ rad/s over
+//! 0.3 s is 0.003 Nm), which is what bounds `max_velocity`. The average of q, τ_J and the controller's
 //! gravity over a window that starts with the quiet settle window (already static data) is one
 //! static sample.
 
@@ -53,12 +59,15 @@ impl SettleDetector {
             return false;
         }
         let n = self.recent.len() as f64;
+        let t_mean = self.recent.iter().map(|r| r.time_s).sum::<f64>() / n;
+        let t_var = self
+            .recent
+            .iter()
+            .map(|r| (r.time_s - t_mean).powi(2))
+            .sum::<f64>();
         for j in 0..7 {
-            if self
-                .recent
-                .iter()
-                .any(|r| r.qd[j].is_nan() || r.qd[j].abs() >= self.max_velocity)
-            {
+            let speed = self.window_speed(j, t_mean, t_var);
+            if speed.is_nan() || speed >= self.max_velocity {
                 return false;
             }
             let mean = self.recent.iter().map(|r| r.tau[j]).sum::<f64>() / n;
@@ -73,6 +82,38 @@ impl SettleDetector {
             }
         }
         true
+    }
+
+    /// |least-squares slope| of joint `j`'s position over the window, rad/s; a window whose
+    /// times do not advance (a stalled clock) counts as moving.
+    fn window_speed(&self, j: usize, t_mean: f64, t_var: f64) -> f64 {
+        if t_var <= 0.0 || !t_var.is_finite() {
+            return f64::INFINITY;
+        }
+        let q_mean = self.recent.iter().map(|r| r.q[j]).sum::<f64>() / self.recent.len() as f64;
+        let cov = self
+            .recent
+            .iter()
+            .map(|r| (r.time_s - t_mean) * (r.q[j] - q_mean))
+            .sum::<f64>();
+        (cov / t_var).abs()
+    }
+
+    /// The largest window speed of any joint (the settling evidence), rad/s.
+    pub fn speed(&self) -> f64 {
+        let n = self.recent.len() as f64;
+        if self.recent.len() < 2 {
+            return f64::NAN;
+        }
+        let t_mean = self.recent.iter().map(|r| r.time_s).sum::<f64>() / n;
+        let t_var = self
+            .recent
+            .iter()
+            .map(|r| (r.time_s - t_mean).powi(2))
+            .sum::<f64>();
+        (0..7)
+            .map(|j| self.window_speed(j, t_mean, t_var))
+            .fold(0.0, f64::max)
     }
 }
 
@@ -98,6 +139,10 @@ pub struct Averager {
     batch: [f64; 7],
     batch_n: usize,
     batch_means: Vec<[f64; 7]>,
+    /// Σt, Σt² (t from the first cycle) and per joint Σt·(q − q_first), for the window's slope.
+    st: f64,
+    stt: f64,
+    stq: [f64; 7],
 }
 
 /// An averaged static sample with quality figures.
@@ -133,6 +178,9 @@ impl Averager {
             batch: [0.0; 7],
             batch_n: 0,
             batch_means: Vec::with_capacity(BATCHES + 1),
+            st: 0.0,
+            stt: 0.0,
+            stq: [0.0; 7],
         }
     }
 
@@ -154,10 +202,31 @@ impl Averager {
             self.batch = [0.0; 7];
             self.batch_n = 0;
         }
-        self.first_q.get_or_insert(s.q);
+        let q0 = *self.first_q.get_or_insert(s.q);
         self.last_q = s.q;
-        self.first_t.get_or_insert(s.time_s);
+        let t = s.time_s - *self.first_t.get_or_insert(s.time_s);
         self.last_t = s.time_s;
+        self.st += t;
+        self.stt += t * t;
+        for (acc, (q, q0)) in self.stq.iter_mut().zip(s.q.iter().zip(&q0)) {
+            *acc += t * (q - q0);
+        }
+    }
+
+    /// Least-squares slope of every joint's position over the window so far, rad/s (zero
+    /// before two cycles at distinct times).
+    fn slope(&self) -> [f64; 7] {
+        let n = self.n as f64;
+        let q0 = self.first_q.unwrap_or(self.last_q);
+        let var = self.stt - self.st * self.st / n;
+        if self.n < 2 || var <= 0.0 {
+            return [0.0; 7];
+        }
+        // Σ(t − t̄)(q − q̄) = Σt·q' − Σt·Σq'/n with q' = q − q_first
+        std::array::from_fn(|j| {
+            let sq = self.q[j] - n * q0[j];
+            (self.stq[j] - self.st * sq / n) / var
+        })
     }
 
     /// Cycles added so far.
@@ -191,6 +260,9 @@ impl Averager {
         let first_t = self.first_t.unwrap_or(self.last_t);
         let mut sample =
             StaticSample::new(mean(&self.q).into(), tau.into(), mean(&self.gravity).into());
+        // settling evidence per joint: the window's mean velocity and its position change
+        sample.qd = Some(self.slope().into());
+        sample.drift = Some(std::array::from_fn::<f64, 7, _>(|j| self.last_q[j] - first[j]).into());
         sample.evidence = Some(SampleEvidence {
             time_s: 0.5 * (first_t + self.last_t),
             window_s: self.last_t - first_t + cycle_s,
@@ -242,29 +314,70 @@ mod tests {
         }
     }
 
+    /// A detector fed cycle k at time k ms with joint positions from `q(k)`.
+    fn feed(d: &mut SettleDetector, k: usize, q: f64) -> bool {
+        let mut s = state(0.0, 2.0);
+        s.time_s = k as f64 * 1e-3;
+        s.q = [q; 7];
+        d.push(&s)
+    }
+
     #[test]
     fn settles_only_after_a_full_quiet_window() {
         let mut d = SettleDetector::new(10, 0.01, 0.1);
-        for _ in 0..9 {
-            assert!(!d.push(&state(0.0, 2.0)));
+        for k in 0..9 {
+            assert!(!feed(&mut d, k, 0.5));
         }
-        assert!(d.push(&state(0.0, 2.0)));
-        // A fast sample breaks it until it leaves the window.
-        assert!(!d.push(&state(0.05, 2.0)));
-        for _ in 0..9 {
-            assert!(!d.push(&state(0.0, 2.0)));
+        assert!(feed(&mut d, 9, 0.5));
+        // A creeping arm (0.05 rad/s) does not settle.
+        let mut d = SettleDetector::new(10, 0.01, 0.1);
+        for k in 0..30 {
+            assert!(!feed(&mut d, k, 0.5 + 0.05 * k as f64 * 1e-3));
         }
-        assert!(d.push(&state(0.0, 2.0)));
+        // Then it stops: settled once the window's slope is below the bound.
+        let mut settled = false;
+        for k in 30..60 {
+            settled = feed(&mut d, k, 0.5 + 0.05 * 30e-3);
+        }
+        assert!(settled);
+    }
+
+    #[test]
+    fn encoder_flicker_is_rest_not_motion() {
+        // One encoder count back and forth every cycle: a per-cycle velocity of 0.003 rad/s,
+        // but no motion. The window's slope sees rest; a slow creep of 1e-3 rad/s is motion.
+        let count = std::f64::consts::TAU / f64::from(1u32 << 21);
+        let mut d = SettleDetector::new(100, 2e-4, 0.1);
+        let mut settled = false;
+        for k in 0..100 {
+            settled = feed(&mut d, k, 0.5 + if k % 2 == 0 { 0.0 } else { count });
+        }
+        assert!(settled, "speed {}", d.speed());
+        let mut d = SettleDetector::new(100, 2e-4, 0.1);
+        for k in 0..300 {
+            let q = 0.5 + 1e-3 * k as f64 * 1e-3;
+            let quantised = (q / count).round() * count;
+            assert!(!feed(&mut d, k, quantised));
+        }
+        assert!((d.speed() - 1e-3).abs() < 1e-4, "{}", d.speed());
     }
 
     #[test]
     fn torque_variance_blocks_settling() {
         let mut d = SettleDetector::new(10, 0.01, 0.1);
+        let at = |k: usize, tau: f64| RobotState {
+            time_s: k as f64 * 1e-3,
+            ..state(0.0, tau)
+        };
         for k in 0..20 {
             // ±0.5 Nm alternation: std 0.51 Nm > 0.1 Nm.
-            assert!(!d.push(&state(0.0, if k % 2 == 0 { 1.5 } else { 2.5 })));
+            assert!(!d.push(&at(k, if k % 2 == 0 { 1.5 } else { 2.5 })));
         }
-        assert!(!d.push(&state(0.0, f64::NAN)));
+        for k in 20..30 {
+            d.push(&at(k, 2.0));
+        }
+        assert!(d.is_settled());
+        assert!(!d.push(&at(30, f64::NAN)));
     }
 
     #[test]

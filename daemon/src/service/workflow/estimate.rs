@@ -13,9 +13,10 @@ use estimator::estimate::{Correction as EstimatorCorrection, Method, PayloadEsti
 
 use crate::config::EstimationConfig;
 
+use super::poses::PatternRequest;
 use crate::ipc::PayloadEstimate as IpcPayload;
 use crate::operator::server::EventSink;
-use crate::persistence::{AppliedPayload, StaticSample, Tare};
+use crate::persistence::{AppliedPayload, Clocks, StaticSample, Tare};
 use crate::service::core::{ServiceCore, err};
 use crate::service::pattern::PatternKind;
 use fri_api::protocol::{ErrorCode, OperatorError};
@@ -28,7 +29,7 @@ impl ServiceCore {
         around: Option<[f64; 7]>,
         poses: Option<usize>,
         step_deg: Option<f64>,
-        kind: PatternKind,
+        kind: Option<PatternKind>,
         use_tare: Option<bool>,
         apply: bool,
         events: &EventSink,
@@ -37,20 +38,40 @@ impl ServiceCore {
         self.expect_payload_when_unexplained().await?;
         let tare = self.persistent(|s| s.tare.clone());
         // A stored tare fixes the pattern: by default the estimate runs at the tare's poses (a
-        // retry after an abort must not centre on wherever the arm stopped), and a pattern
-        // elsewhere is refused before anything moves instead of silently running untared.
-        let (around, poses) = match (&tare, use_tare) {
+        // retry after an abort must not centre on wherever the arm stopped), in the reverse of
+        // the tare's order (the two procedures meet at their samples nearest in time), and a
+        // pattern elsewhere is refused before anything moves instead of silently running
+        // untared.
+        let (request, follow) = match (&tare, use_tare) {
             (Some(t), None | Some(true)) => {
-                let around = around.unwrap_or(t.around);
-                let poses = poses.unwrap_or(t.pattern_len());
-                tare_covers(t, &around, poses, self.config.estimation.revisit_first_pose)?;
-                (Some(around), Some(poses))
+                let request = PatternRequest {
+                    around: Some(around.unwrap_or(t.around)),
+                    poses: Some(poses.unwrap_or(t.pattern_len())),
+                    step_deg: step_deg.or(t.step_deg),
+                    kind: kind.or(t.pattern).unwrap_or(PatternKind::Paper),
+                };
+                tare_covers(t, &request, self.config.estimation.revisit_first_pose)?;
+                let follow = t
+                    .targets
+                    .as_ref()
+                    .map(|v| v.iter().rev().copied().collect::<Vec<_>>());
+                (request, follow)
             }
-            _ => (around, poses),
+            _ => (
+                PatternRequest {
+                    around,
+                    poses,
+                    step_deg,
+                    kind: kind.unwrap_or(self.config.estimation.pattern),
+                },
+                None,
+            ),
         };
-        let (samples, around, timing) = self
-            .run_pattern(around, poses, step_deg, kind, Workflow::Estimate, events)
+        let run = self
+            .run_pattern(request, follow, Workflow::Estimate, events)
             .await?;
+        let (samples, around, timing) = (run.samples, run.around, run.timing);
+        let start_clock = run.clocks.0;
         events
             .event(&Event::Progress(Progress {
                 phase: Phase::Estimating,
@@ -63,12 +84,14 @@ impl ServiceCore {
             }))
             .await;
         let loaded: Vec<StaticSample> = samples.iter().map(|s| s.sample).collect();
+        // every loaded pose must have a tare sample (any order, revisits allowed)
+        let tolerance = estimator::correction::DEFAULT_TARE_TOLERANCE;
         let tare_matches = tare.as_ref().is_some_and(|t| {
-            t.samples.len() == loaded.len()
-                && t.samples
+            loaded.iter().all(|l| {
+                t.samples
                     .iter()
-                    .zip(&loaded)
-                    .all(|(a, b)| (0..7).all(|j| (a.q[j] - b.q[j]).abs() < 0.01))
+                    .any(|u| (0..7).all(|j| (u.q[j] - l.q[j]).abs() < tolerance))
+            })
         });
         let use_tare = match use_tare {
             // a stored tare chose these poses: not matching it is an error, never a silent
@@ -82,7 +105,9 @@ impl ServiceCore {
             None if tare.is_some() && !tare_matches => {
                 return Err(err(
                     ErrorCode::Failed,
-                    "the poses reached differ from the stored tare's by more than 0.01 rad: run `tare` again, or pass use_tare=false",
+                    format!(
+                        "the poses reached differ from the stored tare's by more than {tolerance} rad: run `tare` again, or pass use_tare=false"
+                    ),
                 ));
             }
             Some(u) => u,
@@ -93,6 +118,7 @@ impl ServiceCore {
             &loaded,
             if use_tare { tare.as_ref() } else { None },
             &self.config.estimation,
+            start_clock,
         )?;
         let e = &estimate;
         let result = EstimateResult {
@@ -178,20 +204,24 @@ fn report(u: &Uncertainty) -> UncertaintyReport {
 /// Largest difference of a pattern centre from the tare's that still counts as the same, rad.
 const SAME_CENTRE_RAD: f64 = 1e-3;
 
-/// `Ok` when the stored tare was taken with `poses` poses around `around`; otherwise the error
-/// names both centres (deg) and what to do.
-fn tare_covers(
-    tare: &Tare,
-    around: &[f64; 7],
-    poses: usize,
-    revisit: bool,
-) -> Result<(), OperatorError> {
+/// `Ok` when the stored tare was taken with the requested pattern (centre, poses, pattern and
+/// increment); otherwise the error names both and what to do.
+fn tare_covers(tare: &Tare, request: &PatternRequest, revisit: bool) -> Result<(), OperatorError> {
+    let around = request.around.unwrap_or(tare.around);
+    let poses = request.poses.unwrap_or(tare.pattern_len());
     let off = (0..7)
         .map(|j| (around[j] - tare.around[j]).abs())
         .fold(0.0, f64::max);
-    if off <= SAME_CENTRE_RAD && poses == tare.pattern_len() {
+    let tare_kind = tare.pattern.unwrap_or(PatternKind::Paper);
+    let tare_step = tare.step_deg.unwrap_or(tare_kind.default_step_deg());
+    let step = request.step_deg.unwrap_or(tare_step);
+    if off <= SAME_CENTRE_RAD
+        && poses == tare.pattern_len()
+        && request.kind == tare_kind
+        && (step - tare_step).abs() < 1e-9
+    {
         let expected = poses + usize::from(revisit);
-        if tare.samples.len() != expected {
+        if tare.targets.is_none() && tare.samples.len() != expected {
             return Err(err(
                 ErrorCode::InvalidArguments,
                 format!(
@@ -206,13 +236,20 @@ fn tare_covers(
         let v: Vec<String> = q.iter().map(|x| format!("{:.2}", x.to_degrees())).collect();
         format!("[{}]", v.join(", "))
     };
+    let name = |k: PatternKind| match k {
+        PatternKind::Paper => "paper",
+        PatternKind::Optimized => "optimized",
+        PatternKind::Centred => "centred",
+    };
     Err(err(
         ErrorCode::InvalidArguments,
         format!(
-            "the stored tare was taken with {} poses around {} deg, this estimate asks for {poses} poses around {} deg; nothing moved: run `tare` at these poses, leave out `around`/`poses` to use the tare's, or pass use_tare=false to estimate without it",
+            "the stored tare was taken with the {} pattern, {} poses ±{tare_step}° around {} deg, this estimate asks for the {} pattern, {poses} poses ±{step}° around {} deg; nothing moved: run `tare` with these settings, leave out `around`/`poses`/`step_deg`/`pattern` to use the tare's, or pass use_tare=false to estimate without it",
+            name(tare_kind),
             tare.pattern_len(),
             deg(&tare.around),
-            deg(around)
+            name(request.kind),
+            deg(&around)
         ),
     ))
 }
@@ -228,6 +265,7 @@ pub fn estimate(
     loaded: &[StaticSample],
     tare: Option<&Tare>,
     config: &EstimationConfig,
+    start: Option<Clocks>,
 ) -> Result<(PayloadEstimate, Option<Uncertainty>), OperatorError> {
     let options = estimator::estimate::EstimateOptions {
         // Averaged samples: the velocity check is done by the settle detector.
@@ -245,7 +283,7 @@ pub fn estimate(
             rate: config.drift_rate,
             weight: config.drift_prior_weight,
         };
-        let tare_samples = tare.map(|t| on_loaded_clock(t, loaded));
+        let tare_samples = tare.map(|t| on_loaded_clock(t, loaded, start));
         let reference = match &tare_samples {
             Some(t) => Reference::Tare(t),
             None => Reference::Controller {
@@ -270,10 +308,44 @@ pub fn estimate(
     Ok((e, None))
 }
 
-/// The tare's samples with their times on the loaded samples' clock. Both are controller
-/// times; after a controller restart (the estimate's clock starts before the tare's end) the
-/// tare is placed as long before the estimate as the wall clock says.
-fn on_loaded_clock(tare: &Tare, loaded: &[StaticSample]) -> Vec<StaticSample> {
+/// The tare's samples with their times on the loaded samples' clock (the service's). The
+/// service's clock counts the controller's sequence, so it skips the time a controller restart,
+/// a new controller source (the payload attached while the arm was off line) or a restart of
+/// the service hid. The controller's own clock (`intf.timestamp`, stored with the tare and read
+/// at the estimate's start) says how much time really passed: the tare is placed that long
+/// before the estimate. Without it, or when the controller's clock went back (a controller
+/// reboot), the wall clock says (once the estimate's clock starts before the tare's end).
+fn on_loaded_clock(
+    tare: &Tare,
+    loaded: &[StaticSample],
+    start: Option<Clocks>,
+) -> Vec<StaticSample> {
+    let shifted = |shift: f64| -> Vec<StaticSample> {
+        tare.samples
+            .iter()
+            .map(|s| {
+                let mut s = *s;
+                if let Some(e) = &mut s.evidence {
+                    e.time_s += shift;
+                }
+                s
+            })
+            .collect()
+    };
+    if let (Some(a), Some(b)) = (tare.clock, start) {
+        let controller = b.controller_s - a.controller_s;
+        if controller.is_finite() && controller >= 0.0 {
+            // t' = t + (service time passed) − (controller time passed)
+            let hidden = controller - (b.service_s - a.service_s);
+            if hidden.abs() > 1e-3 {
+                tracing::info!(
+                    hidden_s = hidden,
+                    "time between tare and estimate from the controller's clock"
+                );
+            }
+            return shifted(-hidden);
+        }
+    }
     let time = |s: &StaticSample| s.evidence.map_or(0.0, |e| e.time_s);
     let tare_end = tare.samples.iter().map(time).fold(f64::MIN, f64::max);
     let first = loaded.iter().map(time).fold(f64::MAX, f64::min);
@@ -288,19 +360,9 @@ fn on_loaded_clock(tare: &Tare, loaded: &[StaticSample]) -> Vec<StaticSample> {
     let gap = tare
         .taken_unix_s
         .map_or(0.0, |t| (now - t - (last - first)).max(0.0));
-    let shift = first - gap - tare_end;
     tracing::warn!(
         gap_s = gap,
         "the controller's clock restarted since the tare: drift interval from the wall clock"
     );
-    tare.samples
-        .iter()
-        .map(|s| {
-            let mut s = *s;
-            if let Some(e) = &mut s.evidence {
-                e.time_s += shift;
-            }
-            s
-        })
-        .collect()
+    shifted(first - gap - tare_end)
 }

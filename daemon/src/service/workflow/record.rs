@@ -6,6 +6,7 @@ use fri_api::results::{Event, Phase, Progress, RecordResult};
 use tokio::sync::broadcast::error::RecvError;
 use tokio::time::Instant;
 
+use super::acquire::{Acquire, WATCH_WAIT_S};
 use crate::operator::server::EventSink;
 use crate::service::core::{ServiceCore, err};
 use crate::service::stream::Update;
@@ -65,7 +66,13 @@ impl ServiceCore {
                 let mut rows = Vec::with_capacity(n);
                 for k in 0..n {
                     let (s, _) = self
-                        .acquire(true, self.config.estimation.average_s, None)
+                        .acquire(
+                            Acquire::Watch {
+                                wait_s: WATCH_WAIT_S,
+                            },
+                            self.config.estimation.average_s,
+                            None,
+                        )
                         .await?;
                     rows.push(s.sample);
                     events

@@ -2,6 +2,7 @@
 
 use fri_api::results::SampleResult;
 
+use super::acquire::{Acquire, WATCH_WAIT_S};
 use crate::service::core::{ServiceCore, err};
 use crate::service::settle::AveragedSample;
 use fri_api::protocol::{ErrorCode, OperatorError};
@@ -17,7 +18,10 @@ impl ServiceCore {
                 "duration_s must be in (0, 60]",
             ));
         }
-        let (s, settle_s) = self.acquire(true, d, None).await?;
+        let wait = Acquire::Watch {
+            wait_s: WATCH_WAIT_S,
+        };
+        let (s, settle_s) = self.acquire(wait, d, None).await?;
         Ok(sample_result(&s, settle_s))
     }
 }

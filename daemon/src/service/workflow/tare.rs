@@ -3,6 +3,7 @@
 
 use fri_api::results::{TareResult, Workflow};
 
+use super::poses::PatternRequest;
 use crate::operator::server::EventSink;
 use crate::persistence::Tare;
 use crate::service::core::{ServiceCore, err};
@@ -20,18 +21,29 @@ impl ServiceCore {
         events: &EventSink,
     ) -> Result<TareResult, OperatorError> {
         let _guard = self.busy()?;
-        let (samples, around, timing) = self
-            .run_pattern(around, poses, step_deg, kind, Workflow::Tare, events)
+        let request = PatternRequest {
+            around,
+            poses,
+            step_deg,
+            kind,
+        };
+        let run = self
+            .run_pattern(request, None, Workflow::Tare, events)
             .await?;
-        let revisit = usize::from(self.config.estimation.revisit_first_pose);
+        let timing = run.timing;
+        let around = run.around;
         let tare = Tare {
             around,
-            pattern_poses: Some(samples.len().saturating_sub(revisit)),
-            samples: samples.iter().map(|s| s.sample).collect(),
+            pattern_poses: Some(run.poses),
+            samples: run.samples.iter().map(|s| s.sample).collect(),
             taken_unix_s: std::time::SystemTime::now()
                 .duration_since(std::time::UNIX_EPOCH)
                 .ok()
                 .map(|d| d.as_secs_f64()),
+            targets: Some(run.targets),
+            pattern: Some(kind),
+            step_deg: Some(run.step_deg),
+            clock: run.clocks.1,
         };
         self.store
             .save_tare(Some(&tare))

@@ -3,8 +3,8 @@
 //!
 //! 1. **Recording** ([`EnvelopeRecorder`]): every sample's |r_j| and motion features
 //!    ([`crate::envelope`]), kept per window of [`WINDOW_SAMPLES`] samples as the window's
-//!    largest |r_j| and smallest features (so the normalised residual below is never
-//!    underestimated).
+//!    largest |r_j| with the features of that sample (what the scheduled threshold saw at the
+//!    peak; a residual transient lasts a few samples, the features are held for 50 ms).
 //! 2. **Envelope** e_j(φ) = a_j + Σ_k c_jk·φ_jk: non-negative least squares of the windows'
 //!    |r_j| on (1, φ_j) — a scale model: |r_j| = e_j(φ)·z_j with z_j stationary.
 //! 3. **Extreme values**: z_j = |r_j|/e_j per window, maxima per block of `block_s`, fitted with
@@ -32,8 +32,10 @@ use crate::isolation::LinkSurface;
 /// Samples per recorded window (10 ms at 1 kHz): the residual's time constant is 2.5 ms at the
 /// default gain, the features change over tens of ms.
 pub const WINDOW_SAMPLES: usize = 10;
-/// Regressors of the envelope: (1, |q̇_j|, velocity noise, payload dynamics, inertial).
-pub const ENVELOPE_TERMS: usize = 5;
+/// Regressors of the envelope: (1, |q̇_j|, velocity noise, payload dynamics, inertial, gravity).
+pub const ENVELOPE_TERMS: usize = 6;
+/// Motion features kept per window (all regressors but the constant).
+const FEATURES: usize = ENVELOPE_TERMS - 1;
 /// Least blocks an extreme-value fit accepts.
 pub const MIN_BLOCKS: usize = 20;
 
@@ -144,7 +146,7 @@ impl<const N: usize> FitOptions<N> {
 #[derive(Debug, Clone, Copy)]
 struct Window<const N: usize> {
     peak: [f32; N],
-    features: [[f32; N]; 4],
+    features: [[f32; N]; FEATURES],
 }
 
 /// Records a residual without contact with its motion features (not real-time: it grows by
@@ -166,13 +168,8 @@ impl<const N: usize> Default for EnvelopeRecorder<N> {
     }
 }
 
-fn features_of<const N: usize>(f: &MotionFeatures<N>) -> [[f32; N]; 4] {
-    [
-        std::array::from_fn(|j| f.speed[j] as f32),
-        std::array::from_fn(|j| f.velocity_noise[j] as f32),
-        std::array::from_fn(|j| f.payload_dynamics[j] as f32),
-        std::array::from_fn(|j| f.inertial[j] as f32),
-    ]
+fn features_of<const N: usize>(f: &MotionFeatures<N>) -> [[f32; N]; FEATURES] {
+    std::array::from_fn(|k| std::array::from_fn(|j| f.regressors(j)[k + 1] as f32))
 }
 
 impl<const N: usize> EnvelopeRecorder<N> {
@@ -210,10 +207,14 @@ impl<const N: usize> EnvelopeRecorder<N> {
         match &mut self.current {
             None => self.current = Some(now),
             Some(w) => {
+                // Per joint, the sample of the window's largest |r_j| with its own features:
+                // what the scheduled threshold saw at that peak.
                 for j in 0..N {
-                    w.peak[j] = w.peak[j].max(now.peak[j]);
-                    for k in 0..4 {
-                        w.features[k][j] = w.features[k][j].min(now.features[k][j]);
+                    if now.peak[j] > w.peak[j] {
+                        w.peak[j] = now.peak[j];
+                        for k in 0..FEATURES {
+                            w.features[k][j] = now.features[k][j];
+                        }
                     }
                 }
             }
@@ -263,16 +264,10 @@ impl<const N: usize> EnvelopeRecorder<N> {
                 .fit_envelope(j)
                 .ok_or(CalibrationError::Degenerate { joint: j })?;
             let envelope = |w: &Window<N>| {
-                let f = [
-                    1.0,
-                    f64::from(w.features[0][j]),
-                    f64::from(w.features[1][j]),
-                    f64::from(w.features[2][j]),
-                    f64::from(w.features[3][j]),
-                ];
-                (0..ENVELOPE_TERMS)
-                    .map(|k| coefficients[k] * f[k])
-                    .sum::<f64>()
+                coefficients[0]
+                    + (0..FEATURES)
+                        .map(|k| coefficients[k + 1] * f64::from(w.features[k][j]))
+                        .sum::<f64>()
             };
             let maxima: Vec<f64> = self.windows[..blocks * per_block]
                 .chunks(per_block)
@@ -302,6 +297,7 @@ impl<const N: usize> EnvelopeRecorder<N> {
             schedule.velocity_noise[j] = s * coefficients[2];
             schedule.payload_dynamics[j] = s * coefficients[3];
             schedule.inertial[j] = s * coefficients[4];
+            schedule.gravity[j] = s * coefficients[5];
             schedule.ceiling_nm[j] = options.ceiling_nm[j];
             scale[j] = s;
             let mut scheduled: Vec<f64> = self
@@ -356,13 +352,13 @@ impl<const N: usize> EnvelopeRecorder<N> {
         let mut rhs = SVector::<f64, ENVELOPE_TERMS>::zeros();
         let mut mean = 0.0;
         for w in &self.windows {
-            let x = SVector::<f64, ENVELOPE_TERMS>::from([
-                1.0,
-                f64::from(w.features[0][j]),
-                f64::from(w.features[1][j]),
-                f64::from(w.features[2][j]),
-                f64::from(w.features[3][j]),
-            ]);
+            let x = SVector::<f64, ENVELOPE_TERMS>::from_fn(|k, _| {
+                if k == 0 {
+                    1.0
+                } else {
+                    f64::from(w.features[k - 1][j])
+                }
+            });
             let y = f64::from(w.peak[j]);
             gram += x * x.transpose();
             rhs += x * y;
@@ -373,9 +369,11 @@ impl<const N: usize> EnvelopeRecorder<N> {
         if !(mean > 0.0) {
             return None;
         }
+        // A feature that never left (numerical) zero on this joint (e.g. gravity on a vertical
+        // axis) is not a regressor.
         let scale = SVector::<f64, ENVELOPE_TERMS>::from_fn(|k, _| {
             let rms = (gram[(k, k)] / n).sqrt();
-            if rms > 0.0 { 1.0 / rms } else { 0.0 }
+            if rms > 1e-9 { 1.0 / rms } else { 0.0 }
         });
         let scaled_gram = SMatrix::<f64, ENVELOPE_TERMS, ENVELOPE_TERMS>::from_fn(|a, b| {
             gram[(a, b)] * scale[a] * scale[b] / n
@@ -664,7 +662,7 @@ impl SplitMix64 {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct JointCalibration {
     /// Envelope coefficients: floor \[Nm\], speed \[Nm·s/rad\], velocity noise \[Nm per kg·m²\],
-    /// payload dynamics \[1\], inertial \[1\].
+    /// payload dynamics \[1\], inertial \[1\], gravity \[1\].
     pub envelope: [f64; ENVELOPE_TERMS],
     /// Extreme-value fit of the normalised block maxima.
     pub extreme: ExtremeFit,
@@ -827,7 +825,7 @@ mod tests {
         let mut h = SVector::<f64, K>::zeros();
         let mut rng = SplitMix64(1);
         for _ in 0..500 {
-            let x = SVector::<f64, K>::new(1.0, rng.uniform(), rng.uniform(), 0.0, 0.0);
+            let x = SVector::<f64, K>::new(1.0, rng.uniform(), rng.uniform(), 0.0, 0.0, 0.0);
             let y = 1.0 + 2.0 * x[1] - 3.0 * x[2];
             g += x * x.transpose();
             h += x * y;
@@ -839,13 +837,13 @@ mod tests {
         let mut h = SVector::<f64, K>::zeros();
         let mut g = SMatrix::<f64, K, K>::zeros();
         for _ in 0..500 {
-            let x = SVector::<f64, K>::new(1.0, rng.uniform(), rng.uniform(), 0.0, 0.0);
+            let x = SVector::<f64, K>::new(1.0, rng.uniform(), rng.uniform(), 0.0, 0.0, 0.0);
             g += x * x.transpose();
             h += x * (0.5 + 2.0 * x[1] + 3.0 * x[2]);
         }
         let c = nnls(&g, &h);
         assert!(
-            (c - SVector::<f64, K>::new(0.5, 2.0, 3.0, 0.0, 0.0)).norm() < 1e-8,
+            (c - SVector::<f64, K>::new(0.5, 2.0, 3.0, 0.0, 0.0, 0.0)).norm() < 1e-8,
             "{c}"
         );
     }

@@ -52,7 +52,8 @@ impl JointSet {
 }
 
 /// Threshold scheduling by the motion features of [`crate::envelope`] (all zero: no scheduling):
-/// θ_j = θ0_j + c_j·|q̇_j| + noise_j·φ_noise,j + payload_j·φ_payload,j + inertial_j·φ_inertial,j,
+/// θ_j = θ0_j + c_j·|q̇_j| + noise_j·φ_noise,j + payload_j·φ_payload,j + inertial_j·φ_inertial,j
+/// + gravity_j·φ_gravity,j,
 /// at most `ceiling_nm`_j. Fitted by [`crate::calibration`] (θ0 and every coefficient are the
 /// extreme-value scale s_j times the envelope's coefficients).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -63,6 +64,9 @@ pub struct ThresholdSchedule<const N: usize> {
     pub payload_dynamics: SVector<f64, N>,
     /// Coefficient of the arm's inertial torque |(M q̈)_j| (dimensionless).
     pub inertial: SVector<f64, N>,
+    /// Coefficient of the compensated gravity torque |g_L,j(q)| (dimensionless: the static
+    /// model error's share).
+    pub gravity: SVector<f64, N>,
     /// Largest scheduled threshold per joint \[Nm\] (the service: a quarter of the torque limit;
     /// a larger threshold would leave detection effectively off).
     pub ceiling_nm: SVector<f64, N>,
@@ -75,6 +79,7 @@ impl<const N: usize> Default for ThresholdSchedule<N> {
             velocity_noise: SVector::zeros(),
             payload_dynamics: SVector::zeros(),
             inertial: SVector::zeros(),
+            gravity: SVector::zeros(),
             ceiling_nm: SVector::repeat(f64::MAX),
         }
     }
@@ -88,6 +93,7 @@ impl<const N: usize> ThresholdSchedule<N> {
             .iter()
             .chain(self.payload_dynamics.iter())
             .chain(self.inertial.iter())
+            .chain(self.gravity.iter())
             .any(|c| *c != 0.0)
     }
 
@@ -96,6 +102,7 @@ impl<const N: usize> ThresholdSchedule<N> {
         self.velocity_noise.iter().all(coefficient)
             && self.payload_dynamics.iter().all(coefficient)
             && self.inertial.iter().all(coefficient)
+            && self.gravity.iter().all(coefficient)
             && self.ceiling_nm.iter().all(|c| !c.is_nan() && *c > 0.0)
     }
 }
@@ -177,7 +184,8 @@ impl<const N: usize> DetectorConfig<N> {
             + self.velocity_coefficients.component_mul(&f.speed)
             + s.velocity_noise.component_mul(&f.velocity_noise)
             + s.payload_dynamics.component_mul(&f.payload_dynamics)
-            + s.inertial.component_mul(&f.inertial))
+            + s.inertial.component_mul(&f.inertial)
+            + s.gravity.component_mul(&f.gravity))
         .inf(&s.ceiling_nm)
     }
 }

@@ -13,14 +13,19 @@
 //!   that estimate's error, which scales with the same torque;
 //! - the arm's own inertial torque M(q)q̈: the error of the arm's inertia model and the velocity
 //!   filter's lag (p is built from a lagged q̇) scale with it;
-//! - speed-dependent errors (friction on torque sensors that see it, quantisation patterns).
+//! - speed-dependent errors (friction on torque sensors that see it, quantisation patterns);
+//! - the static model error: the payload's gravity estimate and the arm's gravity model are off
+//!   by a share of the gravity torque g_L(q) they compensate.
 //!
 //! [`FeatureTracker`] computes these motion features every cycle from q and the observer's q̇
 //! (allocation-free, fixed-size). The detector's [`crate::detector::ThresholdSchedule`]
 //! turns them into per-joint thresholds θ_j = θ0_j + Σ_k c_jk·φ_jk, and
 //! [`crate::calibration`] fits the coefficients from a recording without contact.
 
-use dynamics::{Data, InertialParameters, Model, crba, payload_regressor};
+use dynamics::{
+    Data, InertialParameters, Model, compute_generalized_gravity, crba, payload_gravity_regressor,
+    payload_regressor,
+};
 use nalgebra::{SVector, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -35,9 +40,12 @@ pub const ACCELERATION_CUTOFF_HZ: f64 = 25.0;
 /// e^{−t/0.05 s}, so a threshold never drops before the residual transient it covers has
 /// decayed (the residual's own time constant is 1/K_I = 2.5 ms at the default gain).
 pub const FEATURE_HOLD_S: f64 = 0.05;
-/// Joint speed at which the velocity noise of that joint is counted fully \[rad/s\]: below, an
-/// encoder quantised to 3 µrad changes less than every few cycles.
-pub const NOISE_SPEED_RAD_S: f64 = 0.01;
+/// Joint speed at which the velocity noise of that joint is counted fully \[rad/s\]. A moving
+/// quantised encoder produces velocity noise at any speed — at a crawl as isolated steps of one
+/// quantum per cycle (3 mrad/s for 3 µrad at 1 kHz), each a momentum pulse that the residual
+/// shows as a spike — so the factor saturates at the smallest speed the filter shows for one
+/// step; a joint at rest (position unchanged) counts zero.
+pub const NOISE_SPEED_RAD_S: f64 = 1e-3;
 
 /// Motion features of one sample, per joint (the regressors of the envelope).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -52,6 +60,9 @@ pub struct MotionFeatures<const N: usize> {
     pub payload_dynamics: SVector<f64, N>,
     /// |(M(q)q̈)_j| \[Nm\]: the arm's own inertial torque at the estimated q̈.
     pub inertial: SVector<f64, N>,
+    /// |g_L,j(q)| \[Nm\]: the gravity torque of the arm and the payload the observer
+    /// compensates (its relative error is the static model error).
+    pub gravity: SVector<f64, N>,
     /// Estimated joint acceleration q̈ \[rad/s²\] (not a regressor: for the covered ranges).
     pub acceleration: SVector<f64, N>,
 }
@@ -73,19 +84,22 @@ impl<const N: usize> MotionFeatures<N> {
             velocity_noise: SVector::zeros(),
             payload_dynamics: SVector::zeros(),
             inertial: SVector::zeros(),
+            gravity: SVector::zeros(),
             acceleration: SVector::zeros(),
         }
     }
 
     /// The regressor vector of joint `j`: (1, |q̇_j|, velocity noise, payload dynamics,
-    /// inertial), in the order of [`crate::calibration::Envelope::coefficients`].
-    pub fn regressors(&self, j: usize) -> [f64; 5] {
+    /// inertial, gravity), in the order of the envelope's coefficients
+    /// ([`crate::calibration::JointCalibration::envelope`]).
+    pub fn regressors(&self, j: usize) -> [f64; 6] {
         [
             1.0,
             self.speed[j],
             self.velocity_noise[j],
             self.payload_dynamics[j],
             self.inertial[j],
+            self.gravity[j],
         ]
     }
 }
@@ -123,6 +137,7 @@ pub struct FeatureTracker<const N: usize> {
     weightless: Model<N>,
     data: Data<N>,
     payload: SVector<f64, 10>,
+    payload_gravity: SVector<f64, 4>,
     smoothed_velocity: Option<SVector<f64, N>>,
     acceleration: SVector<f64, N>,
     held: MotionFeatures<N>,
@@ -137,6 +152,7 @@ impl<const N: usize> FeatureTracker<N> {
             weightless: model.with_gravity(Vector3::zeros()),
             data: Data::new(model),
             payload: reference_payload(payload).to_vector(),
+            payload_gravity: payload.gravity_parameters(),
             smoothed_velocity: None,
             acceleration: SVector::zeros(),
             held: MotionFeatures::zero(),
@@ -146,6 +162,7 @@ impl<const N: usize> FeatureTracker<N> {
     /// Changes the payload the features assume (not real-time: called with a new estimate).
     pub fn set_payload(&mut self, payload: &PayloadCompensation) {
         self.payload = reference_payload(payload).to_vector();
+        self.payload_gravity = payload.gravity_parameters();
     }
 
     /// Forgets the motion history (after a restart of the observer).
@@ -197,6 +214,9 @@ impl<const N: usize> FeatureTracker<N> {
         } else {
             SVector::zeros()
         };
+        let gravity = (compute_generalized_gravity(&self.model, &mut self.data, q)
+            + payload_gravity_regressor(&self.model, &mut self.data, q) * self.payload_gravity)
+            .abs();
         let decay = (-dt / FEATURE_HOLD_S).exp();
         let hold = |held: &SVector<f64, N>, now: &SVector<f64, N>| (held * decay).sup(now);
         self.held = MotionFeatures {
@@ -204,6 +224,8 @@ impl<const N: usize> FeatureTracker<N> {
             velocity_noise: hold(&self.held.velocity_noise, &velocity_noise),
             payload_dynamics: hold(&self.held.payload_dynamics, &payload_dynamics),
             inertial: hold(&self.held.inertial, &inertial),
+            // Static: follows the pose without hold.
+            gravity,
             acceleration: a,
         };
         &self.held

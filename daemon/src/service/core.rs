@@ -65,6 +65,9 @@ pub struct ServiceCore {
     pub(crate) workflow: tokio::sync::Mutex<()>,
     pub(crate) ipc: Option<IpcSender>,
     pub(crate) fri_state: Option<FriStateSource>,
+    /// The last `collision-calibrate` recording (for `source: last-recording`).
+    pub(crate) calibration_recording:
+        Mutex<Option<super::workflow::calibrate::CalibrationRecording>>,
 }
 
 impl std::fmt::Debug for ServiceCore {
@@ -146,6 +149,7 @@ impl ServiceCore {
             workflow: tokio::sync::Mutex::new(()),
             ipc,
             fri_state,
+            calibration_recording: Mutex::new(None),
         }
     }
 

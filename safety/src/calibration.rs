@@ -129,7 +129,7 @@ impl<const N: usize> FitOptions<N> {
         bounded("resamples", self.resamples as f64, 20.0, 10000.0)?;
         for j in 0..N {
             bounded("floor_nm", self.floor_nm[j], 1e-3, 1e3)?;
-            if !(self.ceiling_nm[j] >= self.floor_nm[j]) {
+            if self.ceiling_nm[j].is_nan() || self.ceiling_nm[j] < self.floor_nm[j] {
                 return Err(CalibrationError::Option {
                     field: "ceiling_nm",
                     value: self.ceiling_nm[j],
@@ -366,7 +366,7 @@ impl<const N: usize> EnvelopeRecorder<N> {
         }
         let n = self.windows.len() as f64;
         mean /= n;
-        if !(mean > 0.0) {
+        if mean.is_nan() || mean <= 0.0 {
             return None;
         }
         // A feature that never left (numerical) zero on this joint (e.g. gravity on a vertical

@@ -53,8 +53,7 @@ impl JointSet {
 
 /// Threshold scheduling by the motion features of [`crate::envelope`] (all zero: no scheduling):
 /// θ_j = θ0_j + c_j·|q̇_j| + noise_j·φ_noise,j + payload_j·φ_payload,j + inertial_j·φ_inertial,j
-/// + gravity_j·φ_gravity,j,
-/// at most `ceiling_nm`_j. Fitted by [`crate::calibration`] (θ0 and every coefficient are the
+/// plus gravity_j·φ_gravity,j, at most `ceiling_nm`_j. Fitted by [`crate::calibration`] (θ0 and every coefficient are the
 /// extreme-value scale s_j times the envelope's coefficients).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ThresholdSchedule<const N: usize> {

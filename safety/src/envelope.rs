@@ -186,7 +186,7 @@ impl<const N: usize> FeatureTracker<N> {
         dt: f64,
     ) -> &MotionFeatures<N> {
         let finite = q.iter().chain(qd.iter()).all(|x| x.is_finite());
-        if !finite || !(dt.is_finite() && dt > 0.0) {
+        if !(finite && dt.is_finite() && dt > 0.0) {
             return &self.held;
         }
         let alpha = low_pass_gain(ACCELERATION_CUTOFF_HZ, dt);

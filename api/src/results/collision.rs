@@ -33,18 +33,18 @@ pub struct MonitorSettings {
     /// (calibrated settings: run `collision-calibrate` again).
     #[serde(default)]
     pub payload_changed: bool,
-    /// The thresholds' motion schedule set by `collision-calibrate` (`null`: static
-    /// thresholds).
-    #[serde(default)]
+    /// The thresholds' motion schedule set by `collision-calibrate` (absent: static
+    /// thresholds; absent from older daemons).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub schedule: Option<ThresholdSchedule>,
-    /// How the calibrated settings were obtained (`null`: not calibrated).
-    #[serde(default)]
+    /// How the calibrated settings were obtained (absent: not calibrated).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub calibration: Option<CalibrationInfo>,
 }
 
 /// Thresholds scheduled by the motion (`docs/collision-detection.md` §2): on joint j,
-/// θ_j = min(thresholds_j + speed_j·|q̇_j| + velocity_noise_j·φ_noise,j
-/// + payload_dynamics_j·|τ_L,j| + inertial_j·|(M q̈)_j| + gravity_j·|g_L,j(q)|, a quarter of the
+/// θ_j = min(thresholds_j + speed_j·|q̇_j| + velocity_noise_j·φ_noise,j plus
+/// payload_dynamics_j·|τ_L,j| + inertial_j·|(M q̈)_j| + gravity_j·|g_L,j(q)|, a quarter of the
 /// torque limit).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ThresholdSchedule {

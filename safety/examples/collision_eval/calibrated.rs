@@ -587,6 +587,23 @@ pub fn calibrated(args: &Args) {
         )
     )
     .unwrap();
+    for (label, theta) in [
+        ("point mass, at rest", &cal_pm.thresholds_nm),
+        (
+            "point mass, median over the recording",
+            &cal_pm.median_thresholds_nm,
+        ),
+    ] {
+        writeln!(
+            report,
+            "{}",
+            fmin_row(
+                &format!("calibrated at K = {LOW_GAIN}, {label}"),
+                &fmin(theta)
+            )
+        )
+        .unwrap();
+    }
     writeln!(report).unwrap();
     // Free-motion hour with the sweeps and patterns: every budget and the fixed 6 Nm.
     let plain = |config| Evaluated {
@@ -611,9 +628,18 @@ pub fn calibrated(args: &Args) {
                 "calibrated at K = {LOW_GAIN} 1/s, budget {}/h",
                 BUDGETS[DEFAULT_BUDGET]
             ),
+            format!(
+                "calibrated at K = {LOW_GAIN} 1/s, point-mass payload, budget {}/h",
+                BUDGETS[DEFAULT_BUDGET]
+            ),
             "θ = 6 Nm, no scheduling".to_string(),
         ])
         .collect();
+    assert_eq!(
+        labels.len(),
+        configs.len(),
+        "one label per evaluated monitor"
+    );
     let (free, hours) = free_hour(args.seed, args.hours, &configs);
     eprintln!(
         "free hour done after {:.0} s",

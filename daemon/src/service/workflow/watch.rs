@@ -27,7 +27,7 @@ fn event_of(e: CycleEvent) -> Option<Event> {
                 .map(|j| j + 1)
                 .collect(),
             residual: c.residual,
-            confidence: c.confidence,
+            confidence: (c.confidence > 0.0).then_some(c.confidence),
             contact_point: (c.confidence > 0.0).then_some(c.contact_point),
             wrench: (c.confidence > 0.0).then_some(c.wrench),
         }),

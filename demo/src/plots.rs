@@ -269,7 +269,11 @@ fn draw_panel<DB: DrawingBackend>(
     }
     // Threshold labels at the right end, just above +θ.
     let label_style = s.font(12.0);
-    for t in &panel.thresholds {
+    for t in panel
+        .thresholds
+        .iter()
+        .filter(|t| !t.label.is_empty() && t.curve.is_none())
+    {
         let color = t.color.map_or(NEUTRAL, |c| PALETTE[c % PALETTE.len()]);
         let style = label_style
             .clone()
@@ -344,7 +348,8 @@ fn draw_legend<DB: DrawingBackend>(
             None,
         )?;
     }
-    for t in &panel.thresholds {
+    // Thresholds without a label share the legend entry of a labelled one.
+    for t in panel.thresholds.iter().filter(|t| !t.label.is_empty()) {
         let color = t.color.map_or(NEUTRAL, |c| PALETTE[c % PALETTE.len()]);
         entry(&t.label, color.stroke_width(s.px(2.0)), Some(DASH))?;
     }

@@ -130,6 +130,20 @@ const ARGUMENTS: &[Argument] = &[
         range: |_| bounds::RECORD_COUNT,
     },
     Argument {
+        commands: &["collision-calibrate"],
+        field: "duration_s",
+        elements: None,
+        kind: Kind::Number,
+        range: |_| bounds::CALIBRATION_DURATION_S,
+    },
+    Argument {
+        commands: &["collision-calibrate"],
+        field: "budget_per_hour",
+        elements: None,
+        kind: Kind::Number,
+        range: |_| bounds::FALSE_ALARM_BUDGET,
+    },
+    Argument {
         commands: &["watch"],
         field: "state_every",
         elements: None,

@@ -222,6 +222,14 @@ pub const RECORD_COUNT: Range = Range::new(1.0, 1000.0, "");
 /// `watch` state period, cycles (100000 is 100 s at 1 ms).
 pub const STATE_EVERY: Range = Range::new(1.0, 100_000.0, "cycles");
 
+/// `duration_s` of `collision-calibrate`, s: at least 20 blocks of 1 s for the extreme-value
+/// fit; an hour of recording keeps the service's memory for it under 100 MB.
+pub const CALIBRATION_DURATION_S: Range = Range::new(20.0, 3600.0, "s");
+
+/// `budget_per_hour` of `collision-calibrate`, false alarms per hour: from one in 10 000 h (the
+/// fit's extrapolation is already far beyond any recording) to 10 per hour.
+pub const FALSE_ALARM_BUDGET: Range = Range::new(1e-4, 10.0, "1/h");
+
 /// Joint `j`'s rated speed, rad/s (the upper bound of `motion.max_velocity` before the
 /// set-point step limit).
 pub fn rated_speed(j: usize) -> f64 {

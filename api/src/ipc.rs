@@ -112,8 +112,19 @@ pub struct CollisionMessage {
     pub residual: [f64; JOINTS],
     /// Joints over threshold: bit i set for joint i+1.
     pub joints_mask: u32,
-    /// Isolated link (1..7, the most distal joint over threshold); 0 when unknown.
+    /// Isolated link, 1..7: the link whose Jacobian fits the residual best (the contact fit,
+    /// `safety::ContactIsolator`), else the most distal joint over threshold; 0 when unknown.
     pub link: u32,
+    /// Confidence of `link`: the contact fit's posterior probability of that link, 0…1 (0 when
+    /// the fit did not run).
+    pub confidence: f64,
+    /// Estimated contact point, base frame, m (zero when the fit did not run).
+    pub contact_point: [f64; 3],
+    /// Estimated contact wrench at the base origin, base frame: force F in N (0..3), moment
+    /// p × F in Nm (3..6), p the contact point — a `geometry_msgs/Wrench` in the base frame
+    /// (zero when the fit did not run). Estimated at the onset, when the residual has risen only
+    /// part of the way: the magnitude is low, the direction and the point are not.
+    pub wrench: [f64; 6],
 }
 
 /// A payload estimate (published after `estimate-payload`, and on apply/clear), on

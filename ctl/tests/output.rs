@@ -44,6 +44,24 @@ fn estimate() -> Value {
     })
 }
 
+fn calibration(monitor: &Value) -> Value {
+    let joint = json!({"threshold_at_rest": 0.5, "threshold_median": 1.25, "threshold_max": 9.0,
+        "envelope": [0.1, 0.0, 0.2, 0.9, 0.1, 0.001], "model": "gumbel", "shape_interval": [-0.2, 0.05],
+        "scale": 5.2, "scale_point": 5.0, "scale_std": 0.1, "scale_interval": [4.9, 5.3],
+        "peak": 1.1, "exceedances": 0});
+    let force = json!({"median": 8.5, "p10": 4.0, "p90": 20.0});
+    json!({
+        "source": "last-recording", "budget_per_hour": 0.01, "confidence": 0.9,
+        "recording": {"budget_per_hour": 0.01, "duration_s": 61.2, "blocks": 61, "block_s": 1.0,
+                      "max_speed": Q, "max_acceleration": Q},
+        "joints": vec![joint; 7],
+        "schedule": {"thresholds": Q, "speed": Q, "velocity_noise": Q, "payload_dynamics": Q,
+                     "inertial": Q, "gravity": Q, "scale": Q},
+        "min_force_at_rest": vec![force.clone(); 7], "min_force_median": vec![force; 7],
+        "calibrated_for_payload": null, "applied": false, "settings": monitor,
+    })
+}
+
 impl Handler for FakeService {
     async fn handle(&self, command: Request, events: EventSink) -> Result<Value, OperatorError> {
         self.seen.lock().unwrap().push(command.clone());
@@ -80,6 +98,15 @@ impl Handler for FakeService {
                 "samples": 2, "mass": 3.031, "com": [0.0, 0.0, 0.119], "consistent": true,
             }})),
             Request::Collision { .. } => Ok(monitor),
+            Request::CollisionCalibrate { .. } => {
+                events
+                    .send(
+                        "progress",
+                        json!({"phase": "fitting", "workflow": "calibrate"}),
+                    )
+                    .await;
+                Ok(calibration(&monitor))
+            }
             Request::Stop => Ok(json!({"stopped": true, "controller": "connected"})),
             Request::Resume => Ok(json!({"stopped": false})),
             Request::Record { .. } => Ok(json!({"rows": 5, "path": "/rec/x.csv", "lost": 2})),
@@ -200,7 +227,7 @@ async fn the_socket_comes_from_either_side_of_the_subcommand_or_the_environment(
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn every_command_prints_text_with_units() {
     let (_dir, socket, _fake) = fake_service().await;
-    let cases: [(&[&str], &[&str]); 13] = [
+    let cases: [(&[&str], &[&str]); 14] = [
         (
             &["status"],
             &[
@@ -237,6 +264,23 @@ async fn every_command_prints_text_with_units() {
         (
             &["collision", "show"],
             &["monitor        ARMED", "threshold [Nm]", "gain [1/s]"],
+        ),
+        (
+            &[
+                "collision",
+                "calibrate",
+                "--source",
+                "last-recording",
+                "--budget",
+                "0.01",
+            ],
+            &[
+                "61.2 s of robot time (last-recording), 61 blocks",
+                "θ at rest [Nm]",
+                "θ median [Nm]",
+                "median θ [N]",
+                "preview only",
+            ],
         ),
         (&["stop"], &["stop latched"]),
         (&["resume"], &["resumed"]),

@@ -176,6 +176,13 @@ pub struct StoredMonitor {
     /// The payload applied when the settings were configured (`null`: none): the thresholds
     /// fit the residual's free-motion level with that payload compensated.
     pub set_for_payload: Option<AppliedPayload>,
+    /// The motion schedule of calibrated thresholds (`collision-calibrate`; absent: static
+    /// thresholds).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub schedule: Option<fri_api::results::ThresholdSchedule>,
+    /// How the calibrated settings were obtained (absent: not calibrated).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub calibration: Option<fri_api::results::CalibrationInfo>,
 }
 
 /// Directory holding the service's persistent state.
@@ -392,6 +399,8 @@ mod tests {
                 mass: 3.028,
                 com: [0.0, 0.0, 0.119],
             }),
+            schedule: None,
+            calibration: None,
         };
         store.save_monitor(Some(&m)).unwrap();
         let reopened = StateStore::open(dir.path()).unwrap();

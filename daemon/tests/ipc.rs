@@ -109,6 +109,7 @@ fn subscriber_receives_state_events_and_payload_and_cleanup_leaves_nothing() {
             residual: [0.0, 0.0, 0.0, 9.5, 0.0, 7.0, 0.0],
             joints_mask: 0b10_1000,
             link: 6,
+            ..Default::default()
         };
         publisher.publish_collision(&ev).unwrap();
         assert_eq!(*coll_sub.receive().unwrap().unwrap().payload(), ev);

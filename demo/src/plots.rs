@@ -64,8 +64,12 @@ pub struct Series {
 /// A detection threshold ±`value`, drawn as two dashed lines and labelled at the right end.
 #[derive(Debug, Clone)]
 pub struct Threshold {
-    /// Threshold, in the panel's unit (drawn at +value and −value).
+    /// Threshold, in the panel's unit (drawn at +value and −value); with `curve`, the value the
+    /// label is written at (the curve's last).
     pub value: f64,
+    /// A threshold that follows the motion (calibrated, scheduled): ±θ(t) as (time s, value)
+    /// points, drawn dashed instead of the constant `value`.
+    pub curve: Option<Vec<(f64, f64)>>,
     /// Label, e.g. `θ = ±6 Nm`.
     pub label: String,
     /// Palette index (the joint's colour), or `None` for a neutral grey.
@@ -177,8 +181,14 @@ fn extent(panel: &Panel) -> ((f64, f64), (f64, f64)) {
         }
     }
     for t in &panel.thresholds {
-        y0 = y0.min(-t.value);
-        y1 = y1.max(t.value);
+        let top = t.curve.as_ref().map_or(t.value, |c| {
+            c.iter()
+                .map(|p| p.1)
+                .filter(|y| y.is_finite())
+                .fold(t.value, f64::max)
+        });
+        y0 = y0.min(-top);
+        y1 = y1.max(top);
     }
     if x0 >= x1 {
         (x0, x1) = (0.0, 1.0);
@@ -236,18 +246,34 @@ fn draw_panel<DB: DrawingBackend>(
     for t in &panel.thresholds {
         let color = t.color.map_or(NEUTRAL, |c| PALETTE[c % PALETTE.len()]);
         let style = color.stroke_width(s.px(2.0));
-        for v in [t.value, -t.value] {
-            chart.draw_series(DashedLineSeries::new(
-                [(x0, v), (x1, v)],
-                dash.0,
-                dash.1,
-                style,
-            ))?;
+        for sign in [1.0, -1.0] {
+            match &t.curve {
+                Some(points) => {
+                    chart.draw_series(DashedLineSeries::new(
+                        points.iter().map(|&(x, y)| (x, sign * y)),
+                        dash.0,
+                        dash.1,
+                        style,
+                    ))?;
+                }
+                None => {
+                    chart.draw_series(DashedLineSeries::new(
+                        [(x0, sign * t.value), (x1, sign * t.value)],
+                        dash.0,
+                        dash.1,
+                        style,
+                    ))?;
+                }
+            }
         }
     }
     // Threshold labels at the right end, just above +θ.
     let label_style = s.font(12.0);
-    for t in &panel.thresholds {
+    for t in panel
+        .thresholds
+        .iter()
+        .filter(|t| !t.label.is_empty() && t.curve.is_none())
+    {
         let color = t.color.map_or(NEUTRAL, |c| PALETTE[c % PALETTE.len()]);
         let style = label_style
             .clone()
@@ -322,7 +348,8 @@ fn draw_legend<DB: DrawingBackend>(
             None,
         )?;
     }
-    for t in &panel.thresholds {
+    // Thresholds without a label share the legend entry of a labelled one.
+    for t in panel.thresholds.iter().filter(|t| !t.label.is_empty()) {
         let color = t.color.map_or(NEUTRAL, |c| PALETTE[c % PALETTE.len()]);
         entry(&t.label, color.stroke_width(s.px(2.0)), Some(DASH))?;
     }

@@ -103,6 +103,9 @@ pub struct DemoReport {
     pub free_motion_peak_nm: [f64; 3],
     /// Contact onsets, s.
     pub contacts: Vec<f64>,
+    /// The calibrated thresholds at rest, Nm (joints 1..7; `collision calibrate`, budget one
+    /// false alarm per 10 h); panel (c) of Fig. 6 and its detections use the scheduled ones.
+    pub calibrated_thresholds_at_rest_nm: [f64; 7],
     /// Collision events the service reported online (watch), s since the segment start.
     pub service_detections: Vec<f64>,
     /// Plot files.
@@ -356,11 +359,14 @@ async fn phases(
             "      WARNING: the monitor was not armed throughout the estimate"
         },
     );
-    let truth = driver
+    let (robot, _) = driver
         .join()
-        .ok()
-        .and_then(|(s, _)| s.true_payload().copied())
+        .context("the simulated controller of the estimate phase failed")?;
+    let truth = robot
+        .true_payload()
+        .copied()
         .context("the simulation ended without its truth")?;
+    let schedule = calibrate_thresholds(opts, &mut client, robot, fri).await?;
     let f = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
     let v3 = |v: &Value| [f(&v[0]), f(&v[1]), f(&v[2])];
     let estimate = PayloadReport {
@@ -517,12 +523,16 @@ async fn phases(
         .map(|v| v.iter().map(|t| t - t0).collect())
         .unwrap_or_default();
     let model = dynamics::lwr4();
-    let compensated = residuals(
+    // Panel (c) and the compensated detections: the service's calibrated monitor (scheduled
+    // thresholds) on the recorded log.
+    let (compensated, scheduled, on_c) = scheduled_residuals(
         &model,
         config,
         &rows,
         PayloadCompensation::gravity_from_com(estimate.mass, Vector3::from(estimate.com)),
         cycle_s,
+        &schedule,
+        t0,
     )?;
     let uncompensated = residuals(&model, config, &rows, PayloadCompensation::None, cycle_s)?;
     let fri_signal: Vec<V7> = rows.iter().map(|r| V7::from(r.tau_ext)).collect();
@@ -530,7 +540,6 @@ async fn phases(
     let velocities: Vec<V7> = rows.iter().map(|r| V7::from(r.qd)).collect();
     // The service's thresholds, so the figure's dashed lines are the ones the evaluation used.
     let thresholds = &config.observer.thresholds;
-    let on_c = onsets(&compensated, &velocities, &times, thresholds)?;
     let on_u = onsets(&uncompensated, &velocities, &times, thresholds)?;
     let on_f = onsets(&fri_signal, &velocities, &times, thresholds)?;
     let (det_c, fa_c) = classify(&on_c);
@@ -583,6 +592,7 @@ async fn phases(
         &fri_signal,
         &uncompensated,
         &compensated,
+        &scheduled,
     )?;
     say(
         opts,
@@ -610,6 +620,7 @@ async fn phases(
         false_alarms_fri: fa_f,
         free_motion_peak_nm,
         contacts: CONTACTS_S.to_vec(),
+        calibrated_thresholds_at_rest_nm: schedule.thresholds,
         service_detections: online_rel,
         plots: vec![
             fig5.with_extension("png"),
@@ -706,6 +717,92 @@ fn residuals(
             out.observer.residual
         })
         .collect())
+}
+
+/// Calibrates the service's thresholds on the estimate phase's robot (payload attached and
+/// applied): the built-in excitation at the demo's motion limits, budget one false alarm per
+/// 10 h, applied. Returns the schedule in force.
+async fn calibrate_thresholds(
+    opts: &DemoOptions,
+    client: &mut Client,
+    robot: mock_robot::Simulation,
+    fri: std::net::SocketAddr,
+) -> anyhow::Result<fri_api::results::ThresholdSchedule> {
+    say(
+        opts,
+        "      calibrating the collision thresholds (built-in excitation: the paper's sweeps q_A, q_B, q_C and the pose pattern) ...",
+    );
+    let before = current_cycle(client).await?;
+    let driver = mock_robot::spawn(robot, ServerConfig::loopback(fri, opts.pacing))?;
+    wait_fresh_state(client, before).await?;
+    let reply = client
+        .call(
+            Command::CollisionCalibrate {
+                source: None,
+                duration_s: None,
+                budget_per_hour: None,
+                apply: Some(true),
+            },
+            |_, _| {},
+        )
+        .await?
+        .map_err(|e| anyhow::anyhow!("calibration failed: {}", e.message));
+    drop(driver.join());
+    let result: fri_api::results::CalibrateResult = serde_json::from_value(reply?)?;
+    let fmt = |v: &[f64; 7]| {
+        v.iter()
+            .map(|x| format!("{x:.2}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let median: [f64; 7] = std::array::from_fn(|j| result.joints[j].threshold_median);
+    let force: [f64; 7] = std::array::from_fn(|l| result.min_force_median[l].median);
+    say(
+        opts,
+        format!(
+            "      thresholds at rest ({}) Nm, median in motion ({}) Nm; F_min per link at the median ({}) N",
+            fmt(&result.schedule.thresholds),
+            fmt(&median),
+            fmt(&force)
+        ),
+    );
+    Ok(result.schedule)
+}
+
+/// The residual, the scheduled thresholds and the onset times (s since `t0`) of the service's
+/// calibrated monitor replayed on the log.
+fn scheduled_residuals(
+    model: &dynamics::Model<7>,
+    config: &Config,
+    rows: &[LogRow],
+    payload: PayloadCompensation,
+    cycle_s: f64,
+    schedule: &fri_api::results::ThresholdSchedule,
+    t0: f64,
+) -> anyhow::Result<(Vec<V7>, Vec<V7>, Vec<f64>)> {
+    let mut monitor: CollisionMonitor<7> =
+        fri_service::service::build_scheduled_monitor(config, model.clone(), Some(schedule))
+            .context("observer configuration")?;
+    monitor
+        .set_payload(payload)
+        .map_err(|e| anyhow::anyhow!("payload rejected by the observer: {e}"))?;
+    let mut last_t: Option<f64> = None;
+    let (mut residual, mut thresholds, mut onsets) = (Vec::new(), Vec::new(), Vec::new());
+    for r in rows {
+        let dt = last_t.map_or(cycle_s, |t| (r.time_s - t).max(cycle_s));
+        last_t = Some(r.time_s);
+        let out = monitor.step(&ObserverInput::new(V7::from(r.q), V7::from(r.tau), dt));
+        let features = monitor
+            .features()
+            .copied()
+            .unwrap_or_else(|| safety::MotionFeatures::from_speed(&out.observer.velocity));
+        residual.push(out.observer.residual);
+        thresholds.push(monitor.detector().config().thresholds_for(&features));
+        if let Some(Detection::Onset(_)) = out.detection {
+            onsets.push(r.time_s - t0);
+        }
+    }
+    Ok((residual, thresholds, onsets))
 }
 
 fn onsets(
@@ -864,6 +961,7 @@ fn threshold_lines(thresholds: &[f64; 7]) -> Vec<Threshold> {
                 value,
                 label: format!("θ{who} = ±{} Nm", fri_api::bounds::number(value)),
                 color: (joints.len() == 1 && !every).then(|| joints[0]),
+                curve: None,
             }
         })
         .collect()
@@ -876,8 +974,30 @@ fn plot_fig6(
     fri: &[V7],
     uncompensated: &[V7],
     compensated: &[V7],
+    scheduled: &[V7],
 ) -> anyhow::Result<()> {
     let markers = contact_markers();
+    // Panel (c): each joint's calibrated threshold θ_j(t), dashed in the joint's colour, as its
+    // largest value per 20 ms (the schedule follows the velocity noise sample by sample).
+    let scheduled_lines: Vec<Threshold> = (0..7)
+        .map(|j| {
+            let points: Vec<(f64, f64)> = times
+                .chunks(20)
+                .zip(scheduled.chunks(20))
+                .map(|(t, th)| (t[0], th.iter().map(|v| v[j]).fold(0.0, f64::max)))
+                .collect();
+            Threshold {
+                value: points.last().map_or(0.0, |p| p.1),
+                label: if j == 0 {
+                    "θⱼ(t), max per 20 ms".to_owned()
+                } else {
+                    String::new()
+                },
+                color: Some(j),
+                curve: Some(points),
+            }
+        })
+        .collect();
     let panel = |title: &str, y_label: &str, sig: &[V7]| Panel {
         title: title.to_owned(),
         y_label: y_label.to_owned(),
@@ -906,11 +1026,14 @@ fn plot_fig6(
                 "r [Nm]",
                 uncompensated,
             ),
-            panel(
-                "(c) Residual with the estimated payload compensated (eq. 48)",
-                "r [Nm]",
-                compensated,
-            ),
+            Panel {
+                thresholds: scheduled_lines,
+                ..panel(
+                    "(c) Residual, payload compensated (eq. 48); calibrated θⱼ(t), 1 false alarm/10 h",
+                    "r [Nm]",
+                    compensated,
+                )
+            },
         ],
     )
     .map(|_| ())

@@ -1,7 +1,8 @@
-//! Collision detection on the residual: per-joint thresholds, optional velocity scheduling,
+//! Collision detection on the residual: per-joint thresholds scheduled by the motion,
 //! hysteresis and debounce.
 //!
-//! A joint is *over* when |r_j| > θ_j with θ_j = θ0_j + c_j·|q̇_j|. A contact starts after
+//! A joint is *over* when |r_j| > θ_j with θ_j = min(θ0_j + c_j·|q̇_j| + Σ_k s_jk·φ_jk, ceiling_j)
+//! (φ the motion features of [`crate::envelope`], s the [`ThresholdSchedule`]). A contact starts after
 //! `debounce_samples` consecutive samples with at least one joint over (the onset sample is the
 //! last of them) and ends after `release_samples` consecutive samples with every
 //! |r_j| < release_ratio·θ_j. Samples whose residual was not updated (rejected, resynchronised)
@@ -10,7 +11,9 @@
 use nalgebra::SVector;
 use serde::{Deserialize, Serialize};
 
+use crate::envelope::MotionFeatures;
 use crate::error::ConfigError;
+use crate::isolation::ContactEstimate;
 
 /// Default collision threshold on every joint \[Nm\] (the paper's 6 Nm).
 pub const DEFAULT_THRESHOLD_NM: f64 = 6.0;
@@ -48,6 +51,61 @@ impl JointSet {
     }
 }
 
+/// Threshold scheduling by the motion features of [`crate::envelope`] (all zero: no scheduling):
+/// θ_j = θ0_j + c_j·|q̇_j| + noise_j·φ_noise,j + payload_j·φ_payload,j + inertial_j·φ_inertial,j
+/// plus gravity_j·φ_gravity,j, at most `ceiling_nm`_j. Fitted by [`crate::calibration`] (θ0 and every coefficient are the
+/// extreme-value scale s_j times the envelope's coefficients).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ThresholdSchedule<const N: usize> {
+    /// Coefficient of the velocity-noise feature \[Nm per kg·m²\].
+    pub velocity_noise: SVector<f64, N>,
+    /// Coefficient of the payload's unmodelled dynamics |τ_L,j| (dimensionless).
+    pub payload_dynamics: SVector<f64, N>,
+    /// Coefficient of the arm's inertial torque |(M q̈)_j| (dimensionless).
+    pub inertial: SVector<f64, N>,
+    /// Coefficient of the compensated gravity torque |g_L,j(q)| (dimensionless: the static
+    /// model error's share).
+    pub gravity: SVector<f64, N>,
+    /// Largest scheduled threshold per joint \[Nm\] (the service: a quarter of the torque limit;
+    /// a larger threshold would leave detection effectively off).
+    pub ceiling_nm: SVector<f64, N>,
+}
+
+impl<const N: usize> Default for ThresholdSchedule<N> {
+    /// No scheduling, no ceiling.
+    fn default() -> Self {
+        Self {
+            velocity_noise: SVector::zeros(),
+            payload_dynamics: SVector::zeros(),
+            inertial: SVector::zeros(),
+            gravity: SVector::zeros(),
+            ceiling_nm: SVector::repeat(f64::MAX),
+        }
+    }
+}
+
+impl<const N: usize> ThresholdSchedule<N> {
+    /// Whether any model-based feature is scheduled (the monitor then runs a
+    /// [`crate::envelope::FeatureTracker`]).
+    pub fn uses_model_features(&self) -> bool {
+        self.velocity_noise
+            .iter()
+            .chain(self.payload_dynamics.iter())
+            .chain(self.inertial.iter())
+            .chain(self.gravity.iter())
+            .any(|c| *c != 0.0)
+    }
+
+    fn is_valid(&self) -> bool {
+        let coefficient = |c: &f64| c.is_finite() && *c >= 0.0;
+        self.velocity_noise.iter().all(coefficient)
+            && self.payload_dynamics.iter().all(coefficient)
+            && self.inertial.iter().all(coefficient)
+            && self.gravity.iter().all(coefficient)
+            && self.ceiling_nm.iter().all(|c| !c.is_nan() && *c > 0.0)
+    }
+}
+
 /// Detector configuration for N joints.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct DetectorConfig<const N: usize> {
@@ -66,6 +124,9 @@ pub struct DetectorConfig<const N: usize> {
     /// textbook rule; lower values isolate earlier, because at the onset the residual has only
     /// risen part of the way (all joints rise together through K/(s + K)).
     pub isolation_ratio: f64,
+    /// Scheduling by the motion features (default: none).
+    #[serde(default)]
+    pub schedule: ThresholdSchedule<N>,
 }
 
 impl<const N: usize> Default for DetectorConfig<N> {
@@ -80,6 +141,7 @@ impl<const N: usize> Default for DetectorConfig<N> {
             debounce_samples: 1,
             release_samples: 20,
             isolation_ratio: 0.5,
+            schedule: ThresholdSchedule::default(),
         }
     }
 }
@@ -94,6 +156,9 @@ impl<const N: usize> DetectorConfig<N> {
                 return Err(ConfigError::Threshold { joint: j });
             }
         }
+        if !self.schedule.is_valid() {
+            return Err(ConfigError::Schedule);
+        }
         let in_unit_interval = |x: f64| x > 0.0 && x <= 1.0;
         if !in_unit_interval(self.release_ratio)
             || !in_unit_interval(self.isolation_ratio)
@@ -105,9 +170,22 @@ impl<const N: usize> DetectorConfig<N> {
         Ok(())
     }
 
-    /// Effective thresholds θ0 + c·|q̇| \[Nm\] at joint velocity `qd` \[rad/s\].
+    /// Effective thresholds θ0 + c·|q̇| \[Nm\] at joint velocity `qd` \[rad/s\] (no model
+    /// features: the arm's inertial and the payload's torque counted as zero).
     pub fn thresholds_at(&self, qd: &SVector<f64, N>) -> SVector<f64, N> {
-        self.thresholds_nm + self.velocity_coefficients.component_mul(&qd.abs())
+        self.thresholds_for(&MotionFeatures::from_speed(qd))
+    }
+
+    /// Effective thresholds \[Nm\] for the motion features `f` (see [`ThresholdSchedule`]).
+    pub fn thresholds_for(&self, f: &MotionFeatures<N>) -> SVector<f64, N> {
+        let s = &self.schedule;
+        (self.thresholds_nm
+            + self.velocity_coefficients.component_mul(&f.speed)
+            + s.velocity_noise.component_mul(&f.velocity_noise)
+            + s.payload_dynamics.component_mul(&f.payload_dynamics)
+            + s.inertial.component_mul(&f.inertial)
+            + s.gravity.component_mul(&f.gravity))
+        .inf(&s.ceiling_nm)
     }
 }
 
@@ -130,6 +208,10 @@ pub struct CollisionEvent<const N: usize> {
     /// Estimated contact wrench (F \[N\]; moment \[Nm\] about the contact point), base frame, for
     /// contacts isolated on the last link; filled by [`crate::monitor::CollisionMonitor`].
     pub contact_wrench: Option<SVector<f64, 6>>,
+    /// The contact fitted through each link's Jacobian (link, point, force, confidence), filled
+    /// by [`crate::monitor::CollisionMonitor`]; when present, `isolated_link` is its link.
+    #[serde(default)]
+    pub contact: Option<ContactEstimate>,
 }
 
 /// Detector state after a sample.
@@ -153,6 +235,16 @@ pub enum Detection<const N: usize> {
         /// Peak |r_j| per joint over the contact \[Nm\].
         peak_residual: SVector<f64, N>,
     },
+}
+
+impl<const N: usize> Detection<N> {
+    /// The onset event, if this sample is one.
+    pub fn onset(&self) -> Option<&CollisionEvent<N>> {
+        match self {
+            Detection::Onset(e) => Some(e),
+            _ => None,
+        }
+    }
 }
 
 /// Threshold/hysteresis/debounce state machine.
@@ -243,7 +335,16 @@ impl<const N: usize> CollisionDetector<N> {
         residual: &SVector<f64, N>,
         qd: &SVector<f64, N>,
     ) -> (JointSet, SVector<f64, N>) {
-        let thresholds = self.config.thresholds_at(qd);
+        self.joints_over_for(residual, &MotionFeatures::from_speed(qd))
+    }
+
+    /// Joints with |r_j| over the effective threshold for the motion features `features`.
+    pub fn joints_over_for(
+        &self,
+        residual: &SVector<f64, N>,
+        features: &MotionFeatures<N>,
+    ) -> (JointSet, SVector<f64, N>) {
+        let thresholds = self.config.thresholds_for(features);
         let mut over = JointSet::default();
         for j in 0..N {
             if residual[j].abs() > thresholds[j] {
@@ -266,7 +367,7 @@ impl<const N: usize> CollisionDetector<N> {
     }
 
     /// Processes one updated residual `residual` \[Nm\] at velocity `qd` \[rad/s\], observer
-    /// cycle `cycle` and time `time_s` \[s\].
+    /// cycle `cycle` and time `time_s` \[s\] (thresholds scheduled by the speed only).
     pub fn update(
         &mut self,
         residual: &SVector<f64, N>,
@@ -274,7 +375,19 @@ impl<const N: usize> CollisionDetector<N> {
         cycle: u64,
         time_s: f64,
     ) -> Detection<N> {
-        let (over, thresholds) = self.joints_over(residual, qd);
+        self.update_for(residual, &MotionFeatures::from_speed(qd), cycle, time_s)
+    }
+
+    /// Processes one updated residual `residual` \[Nm\] with the motion features `features`
+    /// (from a [`crate::envelope::FeatureTracker`]), observer cycle `cycle`, time `time_s` \[s\].
+    pub fn update_for(
+        &mut self,
+        residual: &SVector<f64, N>,
+        features: &MotionFeatures<N>,
+        cycle: u64,
+        time_s: f64,
+    ) -> Detection<N> {
+        let (over, thresholds) = self.joints_over_for(residual, features);
         if self.in_contact {
             if let Some(link) = self.isolate(residual, &thresholds) {
                 self.episode_link = self.episode_link.max(link);
@@ -321,6 +434,7 @@ impl<const N: usize> CollisionDetector<N> {
             thresholds,
             isolated_link,
             contact_wrench: None,
+            contact: None,
         })
     }
 }
@@ -338,6 +452,7 @@ mod tests {
             debounce_samples: debounce,
             release_samples: release,
             isolation_ratio: 1.0,
+            schedule: ThresholdSchedule::default(),
         })
         .unwrap()
     }

@@ -49,6 +49,15 @@ pub enum ConfigError {
         /// Joint index, 0-based.
         joint: usize,
     },
+    /// Threshold schedule coefficient negative or non-finite, or a ceiling not positive.
+    #[error("threshold schedule coefficients must be finite and non-negative, ceilings positive")]
+    Schedule,
+    /// Threshold-to-noise ratio not finite or not positive.
+    #[error("threshold-to-noise ratio on joint {joint} (0-based) must be finite and positive")]
+    ThresholdToNoise {
+        /// Joint index, 0-based.
+        joint: usize,
+    },
     /// Absolute isolation level not finite or not positive.
     #[error("isolation level on joint {joint} (0-based) must be finite and positive")]
     IsolationLevel {

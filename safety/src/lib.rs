@@ -6,7 +6,11 @@
 //!   discretisation, velocity from positions, fault monitoring; allocation-free `step`.
 //! - [`detector::CollisionDetector`]: per-joint thresholds (6 Nm default), velocity scheduling,
 //!   hysteresis, debounce, collision events with isolation.
-//! - [`isolation`]: isolated link and damped least-squares contact wrench.
+//! - [`envelope`]: the motion features the residual's free-motion level depends on.
+//! - [`calibration`]: the envelope and extreme-value fit that sets thresholds for a false-alarm
+//!   budget, and the minimum detectable force at those thresholds.
+//! - [`isolation`]: the contact fitted through each link's Jacobian (link, point, force,
+//!   confidence) and damped least-squares contact wrench.
 //! - [`reaction::ReactionSupervisor`]: stop / pause-then-resume / wait-for-operator requests.
 //! - [`monitor::CollisionMonitor`]: all of the above in one per-cycle call.
 //! - [`payload_tolerance::PayloadTolerance`]: detection against the predicted torque of a
@@ -14,9 +18,11 @@
 //!
 //! Units: SI (rad, rad/s, Nm, N, kg, m, s). Joints and links are 0-based in code.
 
+pub mod calibration;
 pub mod config;
 pub mod detector;
 pub mod discretisation;
+pub mod envelope;
 pub mod error;
 pub mod fault;
 pub mod friction;
@@ -31,11 +37,14 @@ pub mod velocity;
 pub use config::{DEFAULT_GAIN, GravitySource, ObserverConfig};
 pub use detector::{
     CollisionDetector, CollisionEvent, DEFAULT_THRESHOLD_NM, Detection, DetectorConfig, JointSet,
+    ThresholdSchedule,
 };
 pub use discretisation::{Discretisation, ResidualIntegrator};
+pub use envelope::{FeatureTracker, MotionFeatures};
 pub use error::ConfigError;
 pub use fault::{Fault, FaultLog, Signal};
 pub use friction::JointFriction;
+pub use isolation::{ContactEstimate, ContactIsolator, LinkSurface, lwr4_link_surfaces};
 pub use monitor::{CollisionMonitor, DEFAULT_WARMUP_S, MonitorConfig, MonitorOutput};
 pub use observer::{MomentumObserver, ObserverInput, ObserverOutput, ObserverStatus};
 pub use payload::PayloadCompensation;

@@ -12,9 +12,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::ObserverConfig;
 use crate::detector::{CollisionDetector, Detection, DetectorConfig};
+use crate::envelope::{FeatureTracker, MotionFeatures};
 use crate::error::ConfigError;
 use crate::fault::Fault;
-use crate::isolation::estimate_contact_wrench;
+use crate::isolation::{ContactEstimate, ContactIsolator, LinkSurface, estimate_contact_wrench};
 use crate::observer::{MomentumObserver, ObserverInput, ObserverOutput, ObserverStatus};
 use crate::payload::PayloadCompensation;
 use crate::reaction::{ReactionPolicy, ReactionRequest, ReactionState, ReactionSupervisor};
@@ -42,7 +43,20 @@ pub struct MonitorConfig<const N: usize> {
     /// Samples after a (re)start in which the residual is not trusted, as time \[s\]
     /// (0…10 s; default [`DEFAULT_WARMUP_S`]).
     pub warmup_s: f64,
+    /// Link surfaces for the contact fit through the links' Jacobians
+    /// ([`ContactIsolator`]); `None`: only the most-distal-joint rule (e.g. for a model whose
+    /// geometry is unknown). The LWR's: [`crate::isolation::lwr4_link_surfaces`].
+    #[serde(skip)]
+    pub link_surfaces: Option<[LinkSurface; N]>,
+    /// Ratio of the effective threshold to the residual's noise per joint, θ_j/σ_j (> 0): the
+    /// contact fit weighs each joint by 1/σ_j². A calibration sets it to its extreme-value
+    /// scale (θ = s·envelope); default [`DEFAULT_THRESHOLD_TO_NOISE`].
+    pub threshold_to_noise: SVector<f64, N>,
 }
+
+/// Default ratio of a threshold to the residual's noise on its joint (uncalibrated thresholds
+/// sit at a few times the free-motion level).
+pub const DEFAULT_THRESHOLD_TO_NOISE: f64 = 4.0;
 
 /// Default warm-up after a (re)start \[s\]: 50 ms, twenty residual time constants at the
 /// default K_I = 400 1/s, and longer than the velocity filter's settling.
@@ -59,6 +73,8 @@ impl<const N: usize> MonitorConfig<N> {
             contact_point: None,
             wrench_damping: DEFAULT_WRENCH_DAMPING,
             warmup_s: DEFAULT_WARMUP_S,
+            link_surfaces: None,
+            threshold_to_noise: SVector::repeat(DEFAULT_THRESHOLD_TO_NOISE),
         }
     }
 }
@@ -90,6 +106,11 @@ pub struct CollisionMonitor<const N: usize> {
     wrench_damping: f64,
     warmup_samples: u32,
     warmup_left: u32,
+    features: Option<FeatureTracker<N>>,
+    isolator: Option<ContactIsolator<N>>,
+    threshold_to_noise: SVector<f64, N>,
+    /// Best contact fit of the running contact and the weighted residual norm it was made at.
+    contact: Option<(ContactEstimate, f64)>,
 }
 
 impl<const N: usize> CollisionMonitor<N> {
@@ -100,6 +121,13 @@ impl<const N: usize> CollisionMonitor<N> {
         }
         if !(config.warmup_s.is_finite() && (0.0..=10.0).contains(&config.warmup_s)) {
             return Err(ConfigError::Warmup(config.warmup_s));
+        }
+        if let Some(joint) = config
+            .threshold_to_noise
+            .iter()
+            .position(|x| !(x.is_finite() && *x > 0.0))
+        {
+            return Err(ConfigError::ThresholdToNoise { joint });
         }
         let period = config.observer.sample_period_s;
         // Validated by the observer below; a bad period yields its error, not ours.
@@ -112,6 +140,15 @@ impl<const N: usize> CollisionMonitor<N> {
             .contact_point
             .unwrap_or_else(|| model.flange().translation.vector);
         let wrench_data = Data::new(&model);
+        let features = config
+            .detector
+            .schedule
+            .uses_model_features()
+            .then(|| FeatureTracker::new(&model, &PayloadCompensation::None));
+        let isolator = config
+            .link_surfaces
+            .as_ref()
+            .map(|s| ContactIsolator::new(&model, s));
         Ok(Self {
             observer: MomentumObserver::new(model, config.observer)?,
             detector: CollisionDetector::new(config.detector)?,
@@ -121,6 +158,10 @@ impl<const N: usize> CollisionMonitor<N> {
             wrench_damping: config.wrench_damping,
             warmup_samples,
             warmup_left: warmup_samples,
+            features,
+            isolator,
+            threshold_to_noise: config.threshold_to_noise,
+            contact: None,
         })
     }
 
@@ -152,7 +193,22 @@ impl<const N: usize> CollisionMonitor<N> {
     pub fn restart(&mut self) {
         self.observer.reset();
         self.detector.reset();
+        if let Some(f) = &mut self.features {
+            f.reset();
+        }
+        self.contact = None;
         self.warmup_left = self.warmup_samples;
+    }
+
+    /// The motion features the thresholds were scheduled with at the last step (speed only when
+    /// the schedule uses no model features).
+    pub fn features(&self) -> Option<&MotionFeatures<N>> {
+        self.features.as_ref().map(|f| f.features())
+    }
+
+    /// The best contact fit of the running (or last) contact, when link surfaces are set.
+    pub fn contact(&self) -> Option<&ContactEstimate> {
+        self.contact.as_ref().map(|(c, _)| c)
     }
 
     /// Whether the residual is trusted (warm-up over).
@@ -181,6 +237,11 @@ impl<const N: usize> CollisionMonitor<N> {
 
     /// Installs a payload estimate (see [`MomentumObserver::set_payload`]).
     pub fn set_payload(&mut self, payload: PayloadCompensation) -> Result<(), Fault> {
+        if let Some(f) = &mut self.features
+            && payload.validate().is_ok()
+        {
+            f.set_payload(&payload);
+        }
         self.observer.set_payload(payload)
     }
 
@@ -206,13 +267,42 @@ impl<const N: usize> CollisionMonitor<N> {
         )
     }
 
+    /// Fits the contact again when the residual has grown by a fifth (in noise units) since the
+    /// last fit: a better signal-to-noise ratio, at most a few fits per contact.
+    fn refine_contact(
+        &mut self,
+        q: &SVector<f64, N>,
+        residual: &SVector<f64, N>,
+        features: &MotionFeatures<N>,
+    ) {
+        let Some(isolator) = &mut self.isolator else {
+            return;
+        };
+        let noise = self
+            .detector
+            .config()
+            .thresholds_for(features)
+            .component_div(&self.threshold_to_noise);
+        let strength = residual.component_div(&noise).norm();
+        if self
+            .contact
+            .as_ref()
+            .is_some_and(|(_, at)| strength < 1.2 * at)
+        {
+            return;
+        }
+        if let Some(c) = isolator.isolate(self.observer.model(), q, residual, &noise) {
+            self.contact = Some((c, strength));
+        }
+    }
+
     /// Processes one sample.
     pub fn step(&mut self, input: &ObserverInput<N>) -> MonitorOutput<N> {
         self.step_with(input, |_, observed, _| observed.residual)
     }
 
     /// Processes one sample; the detector (and isolation) sees `explain(input, observer output,
-    /// static thresholds)` \[Nm\] instead of the observer's residual, e.g. the part of it an
+    /// the thresholds scheduled for this motion)` \[Nm\] instead of the observer's residual, e.g. the part of it an
     /// unknown payload does not explain ([`crate::payload_tolerance::PayloadTolerance`]). Called
     /// only when the detector runs (residual updated, warm-up over).
     pub fn step_with(
@@ -227,15 +317,35 @@ impl<const N: usize> CollisionMonitor<N> {
         if warming && !matches!(observed.status, ObserverStatus::Rejected(_)) {
             self.warmup_left -= 1;
         }
+        let features = match &mut self.features {
+            Some(tracker) if observed.status.residual_updated() => {
+                *tracker.step(&input.q, &observed.velocity, input.dt_s)
+            }
+            Some(tracker) => *tracker.features(),
+            None => MotionFeatures::from_speed(&observed.velocity),
+        };
         if observed.status.residual_updated() && !warming {
-            let residual = explain(input, &observed, &self.detector.config().thresholds_nm);
-            let mut d = self.detector.update(
+            // The detector sees what is left to explain, against the thresholds scheduled for
+            // this motion (the unknown-payload mode tolerates up to them).
+            let thresholds = self.detector.config().thresholds_for(&features);
+            let residual = explain(input, &observed, &thresholds);
+            let mut d = self.detector.update_for(
                 &residual,
-                &observed.velocity,
+                &features,
                 observed.cycle,
                 observed.time_s,
             );
+            if matches!(d, Detection::Onset(_)) {
+                self.contact = None;
+            }
+            if matches!(d, Detection::Onset(_) | Detection::InContact) {
+                self.refine_contact(&input.q, &residual, &features);
+            }
             if let Detection::Onset(event) = &mut d {
+                if let Some((c, _)) = &self.contact {
+                    event.contact = Some(*c);
+                    event.isolated_link = c.link;
+                }
                 if event.isolated_link + 1 == N {
                     event.contact_wrench = estimate_contact_wrench(
                         self.observer.model(),

@@ -255,6 +255,7 @@ mod tests {
             thresholds: Vector2::new(6.0, 6.0),
             isolated_link: 1,
             contact_wrench: None,
+            contact: None,
         }
     }
 

@@ -79,3 +79,38 @@ fn monitor_step_with_collision_does_not_allocate() {
     );
     assert_eq!(allocations, 0);
 }
+
+#[test]
+fn scheduled_monitor_with_contact_fit_does_not_allocate() {
+    // Thresholds scheduled by every motion feature (the tracker runs: M(q), q̈, the payload's
+    // dynamics) and the contact fitted through the links' Jacobians at the onset.
+    let samples = inputs();
+    let mut config = MonitorConfig::new(T, 100.0);
+    config.detector.schedule.velocity_noise = V7::repeat(0.1);
+    config.detector.schedule.payload_dynamics = V7::repeat(1.2);
+    config.detector.schedule.inertial = V7::repeat(0.3);
+    config.link_surfaces = Some(safety::lwr4_link_surfaces());
+    let mut monitor = CollisionMonitor::new(lwr4(), config).unwrap();
+    monitor
+        .set_payload(PayloadCompensation::gravity_from_com(
+            3.0,
+            Vector3::new(0.0, 0.0, 0.12),
+        ))
+        .unwrap();
+    let mut onsets = 0;
+    let allocations = alloc_counter::count_allocations(|| {
+        for s in &samples {
+            let out = monitor.step(s);
+            if let Some(safety::Detection::Onset(e)) = out.detection {
+                assert!(e.contact.is_some());
+                onsets += 1;
+            }
+        }
+    });
+    assert_eq!(
+        onsets, 1,
+        "the input sequence must exercise a collision onset"
+    );
+    assert!(monitor.features().is_some());
+    assert_eq!(allocations, 0);
+}

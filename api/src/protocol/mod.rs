@@ -101,6 +101,23 @@ pub enum Command {
         #[serde(default)]
         pause_s: Option<f64>,
     },
+    /// Calibrate the collision thresholds for a false-alarm budget on a motion without contact
+    /// (`docs/collision-detection.md` §7).
+    CollisionCalibrate {
+        /// What to fit on (default `excitation`).
+        #[serde(default)]
+        source: Option<CalibrationSource>,
+        /// Recording length, s: required for `current-task`; with `excitation` the excitation
+        /// is repeated until at least this much is recorded (default: one pass).
+        #[serde(default)]
+        duration_s: Option<f64>,
+        /// False alarms per hour the thresholds may cause, whole arm (default 0.1: one per 10 h).
+        #[serde(default)]
+        budget_per_hour: Option<f64>,
+        /// Install and persist the calibrated settings (default false: a preview).
+        #[serde(default)]
+        apply: Option<bool>,
+    },
     /// Stop: hold the current position and abort any running workflow.
     Stop,
     /// Resume after a stop or a collision reaction.
@@ -139,6 +156,7 @@ impl Command {
         "clear-payload",
         "expect-payload",
         "collision",
+        "collision-calibrate",
         "stop",
         "resume",
         "record",
@@ -180,6 +198,33 @@ impl ReactionMode {
             ReactionMode::Report => "report",
             ReactionMode::Stop => "stop",
             ReactionMode::Pause => "pause",
+        }
+    }
+}
+
+/// What `collision-calibrate` fits the thresholds on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CalibrationSource {
+    /// MOVES THE ARM: the built-in excitation within the `[motion]` limits (the paper's q_A,
+    /// q_B, q_C joint-1 sweeps and the estimation pose pattern), recorded while it runs.
+    #[default]
+    Excitation,
+    /// Records `duration_s` of whatever the arm does now (the task, run by the robot program or
+    /// another client); the service does not move the arm.
+    CurrentTask,
+    /// Fits the service's last calibration recording again (e.g. for another budget); nothing
+    /// moves or is recorded.
+    LastRecording,
+}
+
+impl CalibrationSource {
+    /// The name used in the protocol (`excitation`, `current-task`, `last-recording`).
+    pub fn name(self) -> &'static str {
+        match self {
+            CalibrationSource::Excitation => "excitation",
+            CalibrationSource::CurrentTask => "current-task",
+            CalibrationSource::LastRecording => "last-recording",
         }
     }
 }

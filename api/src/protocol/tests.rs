@@ -156,6 +156,7 @@ fn every_known_name_parses_with_minimal_arguments() {
         r#"{"id":1,"cmd":"clear-payload"}"#,
         r#"{"id":1,"cmd":"expect-payload"}"#,
         r#"{"id":1,"cmd":"collision","action":"show"}"#,
+        r#"{"id":1,"cmd":"collision-calibrate"}"#,
         r#"{"id":1,"cmd":"stop"}"#,
         r#"{"id":1,"cmd":"resume"}"#,
         r#"{"id":1,"cmd":"record","path":"x.csv","kind":"log","duration_s":1}"#,

@@ -1,10 +1,13 @@
-//! The `progress` event of `tare`, `estimate-payload` and `record --kind samples`.
+//! The `progress` event of `tare`, `estimate-payload`, `collision-calibrate` and
+//! `record --kind samples`.
 
 use serde::{Deserialize, Serialize};
 
 /// Payload of a `progress` event. Which fields are present depends on the phase: pattern
 /// phases carry `step`/`of`/`workflow`/`pose`, `sampled` adds `settle_s`/`max_speed`,
-/// `returning` has no pose, `estimating` only `workflow`; `record` sends `phase`/`step`/`of`.
+/// `returning` has no pose, `estimating` only `workflow`; `record` sends `phase`/`step`/`of`;
+/// `collision-calibrate` sends `moving` with `step`/`of` per excitation move, `recording` with
+/// `step`/`of` in whole seconds of robot time, and `fitting`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Progress {
     /// What the workflow does now.
@@ -43,6 +46,10 @@ pub enum Phase {
     Returning,
     /// Computing the estimate.
     Estimating,
+    /// Recording the residual without contact (`collision-calibrate`).
+    Recording,
+    /// Fitting the envelope and the extreme-value distribution (`collision-calibrate`).
+    Fitting,
 }
 
 /// The workflow a `progress` event belongs to.
@@ -53,4 +60,6 @@ pub enum Workflow {
     Tare,
     /// `estimate-payload`.
     Estimate,
+    /// `collision-calibrate`.
+    Calibrate,
 }

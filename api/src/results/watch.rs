@@ -25,6 +25,17 @@ pub struct CollisionDetected {
     pub joints: Vec<usize>,
     /// Residual at the onset, Nm (joints 1..7).
     pub residual: [f64; 7],
+    /// Confidence of `link` (the contact fit's posterior probability), 0…1; absent when the fit
+    /// did not run (and from older daemons).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub confidence: Option<f64>,
+    /// Estimated contact point, base frame, m; absent when the fit did not run.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_point: Option<[f64; 3]>,
+    /// Estimated contact wrench at the base origin, base frame (force N, moment Nm; see
+    /// `fri_api::ipc::CollisionMessage::wrench`); absent when the fit did not run.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wrench: Option<[f64; 6]>,
 }
 
 /// Payload of a `stopped` event: the loop holds the arm.

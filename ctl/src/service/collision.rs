@@ -25,7 +25,19 @@ and the pause of `pause` (0 to 60 s). Lower thresholds detect lighter contacts b
 noise and model error; higher gains react faster but pass more noise. The service stores \
 the settings with the payload applied now and restores them at its next start (arming \
 follows the configuration file); `show` says when the payload has changed since. Prints the \
-settings now in force.";
+settings now in force.
+
+`calibrate` fits the thresholds to a false-alarm budget (`--budget`, false alarms per hour for \
+the whole arm, default 0.1 = one per 10 h; 0.0001 to 10): the service records the residual \
+without contact — during its built-in excitation (`--source excitation`, the default: MOVES \
+THE ARM through the paper's joint-1 sweeps around three stretched poses and the estimation \
+pose pattern, at the configured motion limits), during the task the arm runs now \
+(`--source current-task --duration-s S`, 20 to 3600 s; the service moves nothing), or reuses \
+its last recording (`--source last-recording`) — fits how the residual grows with the motion \
+and an extreme-value distribution of what remains, and reports per joint the thresholds at \
+rest and in motion, the fit's uncertainty, the covered speeds and accelerations, and the \
+minimum detectable force per link. `--apply` installs and stores them with the payload applied \
+now; without it the result is a preview. Touching the arm during the recording aborts it.";
 
 /// Collision-monitor actions on the command line.
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -38,6 +50,8 @@ pub enum CollisionArg {
     Disarm,
     /// Change thresholds, gains and/or the reaction (stored by the service).
     Configure,
+    /// Fit the thresholds to a false-alarm budget (may MOVE THE ARM, see --source).
+    Calibrate,
 }
 
 /// Reaction to a detected contact on the command line.
@@ -80,6 +94,20 @@ pub struct CollisionArgs {
     /// Pause of the `pause` reaction before the arm resumes, s (with `configure`).
     #[arg(long, value_name = "S", allow_hyphen_values = true)]
     pub pause_s: Option<f64>,
+    /// What to calibrate on (with `calibrate`; default excitation).
+    #[arg(long, value_enum)]
+    pub source: Option<super::collision_calibrate::SourceArg>,
+    /// Recording length, s of robot time (with `calibrate`: required for current-task; the
+    /// excitation repeats until this much is recorded, default one pass).
+    #[arg(long, value_name = "S", allow_hyphen_values = true)]
+    pub duration_s: Option<f64>,
+    /// False alarms per hour the thresholds may cause, whole arm (with `calibrate`; default
+    /// 0.1).
+    #[arg(long, value_name = "PER_HOUR", allow_hyphen_values = true)]
+    pub budget: Option<f64>,
+    /// Install and store the calibrated thresholds (with `calibrate`; without: a preview).
+    #[arg(long)]
+    pub apply: bool,
     /// Output format.
     #[command(flatten)]
     pub output: JsonFlag,
@@ -99,12 +127,25 @@ impl Operation for CollisionArgs {
                 "--thresholds, --gains, --reaction and --pause-s go with `configure`".to_owned(),
             );
         }
+        let calibrating = self.source.is_some()
+            || self.duration_s.is_some()
+            || self.budget.is_some()
+            || self.apply;
+        if calibrating {
+            return Err(
+                "--source, --duration-s, --budget and --apply go with `calibrate`".to_owned(),
+            );
+        }
         Ok(Command::Collision {
             action: match self.action {
                 CollisionArg::Show => CollisionAction::Show,
                 CollisionArg::Arm => CollisionAction::Arm,
                 CollisionArg::Disarm => CollisionAction::Disarm,
                 CollisionArg::Configure => CollisionAction::Configure,
+                // `run` sends `calibrate` as its own request (`collision_calibrate.rs`).
+                CollisionArg::Calibrate => {
+                    return super::collision_calibrate::Calibrate(self).request();
+                }
             },
             thresholds: lists::optional_per_joint("thresholds", &self.thresholds)?,
             gains: lists::optional_per_joint("gains", &self.gains)?,
@@ -138,7 +179,19 @@ pub(super) fn print_monitor(m: &MonitorSettings, out: &mut dyn Write) -> io::Res
         (true, ReactionMode::Report) => "ARMED, report only (a contact is reported)".to_owned(),
     };
     writeln!(out, "monitor        {state}")?;
-    let origin = if m.persisted {
+    let origin = if let Some(c) = &m.calibration {
+        let payload = m
+            .set_for_payload
+            .as_ref()
+            .map_or("without a payload".to_owned(), |p| {
+                format!("for a payload of {} kg", fixed(p.mass, 3))
+            });
+        format!(
+            "calibrated by `collision calibrate` {payload}: budget {} false alarms/h, {} s recorded",
+            c.budget_per_hour,
+            fixed(c.duration_s, 0)
+        )
+    } else if m.persisted {
         match &m.set_for_payload {
             Some(p) => format!(
                 "set by `collision configure` for a payload of {} kg",
@@ -150,7 +203,13 @@ pub(super) fn print_monitor(m: &MonitorSettings, out: &mut dyn Write) -> io::Res
         "from the configuration file".to_owned()
     };
     writeln!(out, "settings       {origin}")?;
-    if m.payload_changed {
+    if m.payload_changed && m.calibration.is_some() {
+        writeln!(
+            out,
+            "               the applied payload has changed since: run `collision calibrate` \
+             again with the new payload"
+        )?;
+    } else if m.payload_changed {
         writeln!(
             out,
             "               the applied payload has changed since: check the thresholds \
@@ -158,6 +217,18 @@ pub(super) fn print_monitor(m: &MonitorSettings, out: &mut dyn Write) -> io::Res
         )?;
     }
     joint_header(out)?;
-    joint_row(out, "threshold", "Nm", &m.thresholds, 2)?;
+    let label = if m.schedule.is_some() {
+        "θ at rest"
+    } else {
+        "threshold"
+    };
+    joint_row(out, label, "Nm", &m.thresholds, 2)?;
+    if let Some(s) = &m.schedule {
+        joint_row(out, "+ per |q̇|", "Nm·s", &s.speed, 3)?;
+        joint_row(out, "+ vel. noise", "Nm/kgm²", &s.velocity_noise, 3)?;
+        joint_row(out, "+ payload dyn.", "1", &s.payload_dynamics, 3)?;
+        joint_row(out, "+ inertial", "1", &s.inertial, 3)?;
+        joint_row(out, "+ gravity", "1", &s.gravity, 4)?;
+    }
     joint_row(out, "gain", "1/s", &m.gains, 1)
 }

@@ -6,6 +6,7 @@
 mod apply_payload;
 mod clear_payload;
 mod collision;
+mod collision_calibrate;
 mod error;
 mod estimate;
 mod expect_payload;
@@ -32,6 +33,7 @@ use fri_api::stdio::Stdout;
 pub use apply_payload::ApplyPayloadArgs;
 pub use clear_payload::ClearPayloadArgs;
 pub use collision::{CollisionArg, CollisionArgs};
+pub use collision_calibrate::SourceArg;
 pub use estimate::EstimateArgs;
 pub use expect_payload::ExpectPayloadArgs;
 pub use pattern::{PatternArg, PatternArgs};
@@ -152,6 +154,9 @@ pub fn run(cmd: &OperatorCommand, options: &ServiceOptions, out: &mut Stdout) ->
         O::ApplyPayload(a) => runner::run(a, socket, out),
         O::ClearPayload(a) => runner::run(a, socket, out),
         O::ExpectPayload(a) => runner::run(a, socket, out),
+        O::Collision(a) if matches!(a.action, CollisionArg::Calibrate) => {
+            runner::run(&collision_calibrate::Calibrate(a), socket, out)
+        }
         O::Collision(a) => runner::run(a, socket, out),
         O::Stop(a) => runner::run(a, socket, out),
         O::Resume(a) => runner::run(a, socket, out),

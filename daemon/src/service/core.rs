@@ -71,6 +71,9 @@ pub struct ServiceCore {
     pub(crate) workflow: tokio::sync::Mutex<()>,
     pub(crate) ipc: Option<IpcSender>,
     pub(crate) fri_state: Option<FriStateSource>,
+    /// The last `collision-calibrate` recording (for `source: last-recording`).
+    pub(crate) calibration_recording:
+        Mutex<Option<super::workflow::calibrate::CalibrationRecording>>,
 }
 
 impl std::fmt::Debug for ServiceCore {
@@ -154,6 +157,7 @@ impl ServiceCore {
             workflow: tokio::sync::Mutex::new(()),
             ipc,
             fri_state,
+            calibration_recording: Mutex::new(None),
         }
     }
 

@@ -80,6 +80,21 @@ impl Handler for Dispatcher {
                     pause_s,
                 },
             )),
+            Command::CollisionCalibrate {
+                source,
+                duration_s,
+                budget_per_hour,
+                apply,
+            } => reply(
+                s.collision_calibrate(
+                    source.unwrap_or_default(),
+                    duration_s,
+                    budget_per_hour,
+                    apply.unwrap_or(false),
+                    &events,
+                )
+                .await,
+            ),
             Command::Stop => reply(s.stop().await),
             Command::Resume => reply(s.resume().await),
             Command::Record {

@@ -46,15 +46,39 @@ pub const LEAVE_COMMAND_TIMEOUT: Duration = Duration::from_secs(3);
 const REQUEST_QUEUE: usize = 64;
 
 /// Builds the collision monitor from the configuration (unloaded model; the payload is set
-/// separately).
+/// separately), with static thresholds.
 pub fn build_monitor(
     config: &Config,
     model: Model<7>,
+) -> Result<CollisionMonitor<7>, safety::ConfigError> {
+    build_scheduled_monitor(config, model, None)
+}
+
+/// Builds the collision monitor from the configuration with the thresholds' motion `schedule`
+/// of a calibration (`collision-calibrate`; its θ0 replaces the configuration's thresholds). The
+/// contact is fitted through the LWR's link surfaces (`safety::ContactIsolator`).
+pub fn build_scheduled_monitor(
+    config: &Config,
+    model: Model<7>,
+    schedule: Option<&fri_api::results::ThresholdSchedule>,
 ) -> Result<CollisionMonitor<7>, safety::ConfigError> {
     let mut mc = MonitorConfig::<7>::new(config.fri.cycle_s, safety::DEFAULT_GAIN);
     mc.observer.gains = SVector::from(config.observer.gains);
     mc.observer.gravity_source = GravitySource::Model;
     mc.detector.thresholds_nm = SVector::from(config.observer.thresholds);
+    mc.link_surfaces = Some(safety::lwr4_link_surfaces());
+    if let Some(s) = schedule {
+        mc.detector.thresholds_nm = SVector::from(s.thresholds);
+        mc.detector.velocity_coefficients = SVector::from(s.speed);
+        mc.detector.schedule = safety::ThresholdSchedule {
+            velocity_noise: SVector::from(s.velocity_noise),
+            payload_dynamics: SVector::from(s.payload_dynamics),
+            inertial: SVector::from(s.inertial),
+            gravity: SVector::from(s.gravity),
+            ceiling_nm: SVector::from_fn(|j, _| fri_api::bounds::threshold(j).max),
+        };
+        mc.threshold_to_noise = SVector::from(s.scale);
+    }
     mc.reaction = match config.reaction.policy {
         ReactionMode::Pause => ReactionPolicy::PauseThenResume {
             pause_s: config.reaction.pause_s,
@@ -155,7 +179,9 @@ impl RunningService {
         let stream = stream::spawn(event_rx, shared.clone(), ipc.clone())
             .context("starting the stream thread")?;
 
-        let monitor = build_monitor(&config, model.clone()).context("observer configuration")?;
+        let schedule = stored_monitor.as_ref().and_then(|m| m.schedule.as_ref());
+        let monitor = build_scheduled_monitor(&config, model.clone(), schedule)
+            .context("observer configuration")?;
         let settings = ProcessorSettings::from_config(&config);
         let processor = CycleProcessor::new(settings, monitor, request_rx, event_tx);
         if let Some(p) = &payload {

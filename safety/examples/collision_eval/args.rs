@@ -10,6 +10,8 @@ pub struct Args {
     pub seed: u64,
     /// Run only the tuning sweep (free motion, delay campaigns, Fig. 6 detection per candidate).
     pub sweep: bool,
+    /// Run only the evaluation at calibrated settings (`calibrated.md`).
+    pub calibrated: bool,
 }
 
 /// Parses `std::env::args`; panics on an unknown flag or a malformed value.
@@ -20,11 +22,16 @@ pub fn parse_args() -> Args {
         contacts: 200,
         seed: 2017,
         sweep: false,
+        calibrated: false,
     };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
         if flag == "--sweep" {
             args.sweep = true;
+            continue;
+        }
+        if flag == "--calibrated" {
+            args.calibrated = true;
             continue;
         }
         let value = it

@@ -67,17 +67,30 @@ pub struct Campaign {
     pub free_hours: f64,
 }
 
-/// `n` contacts during free motion, one every ≈1.5 s, observed by one compensated observer and
-/// default detector per gain. The force opposes the contact point's motion (the arm runs into
-/// something), tilted randomly; at low point speed it pushes into the surface.
-pub fn campaign(
+/// A planned contact campaign: the motion, its contacts and their records (truth).
+pub struct ContactPlan {
+    pub q0: crate::support::V7,
+    pub trajectory: Quintic,
+    pub contacts: Vec<Contact>,
+    pub records: Vec<ContactRecord>,
+    /// Simulated length [s].
+    pub total_s: f64,
+}
+
+/// `n` contacts during free motion, one every ≈1.5 s, on random `links`. The force opposes the
+/// contact point's motion (the arm runs into something), tilted randomly; at low point speed it
+/// pushes into the surface. With `leading_side`, a point whose surface would be pulled by that
+/// force is moved to the opposite side of the link (the side that runs into the obstacle), so
+/// every force pushes into the surface as a rigid obstacle's does; without, the point stays
+/// where it was drawn (the uncalibrated campaigns, kept comparable with earlier runs).
+pub fn plan_contacts(
     seed: u64,
     n: usize,
     links: &[usize],
     force: ForceSpec,
     duration_s: f64,
-    variants: &[Variant],
-) -> Vec<Campaign> {
+    leading_side: bool,
+) -> ContactPlan {
     let mut rng = StdRng::seed_from_u64(seed);
     let spacing = 1.5;
     let mut waypoints = random_waypoints(&mut rng, 1);
@@ -94,7 +107,7 @@ pub fn campaign(
     for i in 0..n {
         let start = 1.0 + spacing * i as f64 + rng.random_range(0.0..0.3);
         let link = links[rng.random_range(0..links.len())];
-        let (point, direction_in_link) = random_contact_geometry(&mut rng, link);
+        let (mut point, direction_in_link) = random_contact_geometry(&mut rng, link);
         let (q_at, qd_at, _) = trajectory.sample(start);
         let magnitude = match force {
             ForceSpec::Fixed(f) => f,
@@ -114,6 +127,19 @@ pub fn campaign(
             to_base(&nominal, &q_at, link, &direction_in_link)
         };
         let force_base = direction * magnitude;
+        if leading_side {
+            let surface = safety::lwr4_link_surfaces()[link];
+            let axis = (surface.to - surface.from).normalize();
+            let along = point - surface.from;
+            let radial = (along - axis * axis.dot(&along)).normalize();
+            let normal = to_base(&nominal, &q_at, link, &radial);
+            if force_base.dot(&normal) > 0.0 {
+                // The opposite side's outward normal is −normal: the force pushes into it.
+                point -= radial * (2.0 * surface.radius_m);
+            }
+        }
+        let jacobian = point_jacobian(&nominal, &mut data, &q_at, link, &point);
+        let jv = jacobian.fixed_rows::<3>(0).into_owned();
         let own_joint_torque = (jv.transpose() * force_base)[link].abs();
         contacts.push(Contact {
             link,
@@ -140,8 +166,33 @@ pub fn campaign(
             ),
         });
     }
+    ContactPlan {
+        q0,
+        trajectory,
+        contacts,
+        records,
+        total_s: 1.0 + spacing * n as f64 + 1.0,
+    }
+}
+
+/// `n` contacts during free motion ([`plan_contacts`]), observed by one compensated observer
+/// and detector per variant.
+pub fn campaign(
+    seed: u64,
+    n: usize,
+    links: &[usize],
+    force: ForceSpec,
+    duration_s: f64,
+    variants: &[Variant],
+) -> Vec<Campaign> {
+    let ContactPlan {
+        q0,
+        trajectory,
+        contacts,
+        mut records,
+        total_s: total,
+    } = plan_contacts(seed, n, links, force, duration_s, false);
     let mut world = World::new(seed ^ 0xC0, &q0, &contacts);
-    let total = 1.0 + spacing * n as f64 + 1.0;
     let ticks = (total / T) as usize;
     let mut variants: Vec<(
         MomentumObserver<7>,

@@ -1,8 +1,10 @@
 //! Evaluation of the payload-compensated collision detector on mock-robot's simulated LWR 4+.
 //!
 //! Run: `cargo run --release -p safety --example collision_eval -- [--out DIR] [--hours H]
-//! [--contacts N] [--seed S]` (defaults: target/collision-eval, 1 h, 200 contacts per campaign,
-//! seed 2017). Writes CSV and SVG files into DIR and a Markdown summary to stdout.
+//! [--contacts N] [--seed S] [--sweep | --calibrated]` (defaults: target/collision-eval, 1 h, 200
+//! contacts per campaign, seed 2017). Writes CSV and SVG files into DIR and a Markdown summary to
+//! stdout. `--calibrated` evaluates the thresholds `safety::calibration` sets for a false-alarm
+//! budget (`calibrated.md`, `roc_calibrated.csv`, `calibration.json`).
 //!
 //! Every run is a `mock_robot::Simulation` (docs/mock-robot.md): the true arm is `lwr4()` with
 //! the paper's 3.028 kg payload (CoM 0.119 m on z7, cylinder inertia), rotor inertia and
@@ -29,6 +31,7 @@ mod support;
 
 mod analysis;
 mod args;
+mod calibrated;
 mod campaign;
 mod fig6;
 mod free_motion;
@@ -72,6 +75,10 @@ fn main() {
     std::fs::create_dir_all(&args.out).unwrap();
     if args.sweep {
         sweep(&args);
+        return;
+    }
+    if args.calibrated {
+        calibrated::calibrated(&args);
         return;
     }
     let started = std::time::Instant::now();

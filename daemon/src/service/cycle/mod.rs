@@ -338,12 +338,16 @@ impl CycleProcessor {
         {
             let mut residual = [0.0; 7];
             residual.copy_from_slice(self.reported_residual(&e.residual).as_slice());
+            let fit = e.contact;
             self.emit(CycleEvent::Collision(CollisionMessage {
                 cycle: self.cycle,
                 time_s: self.time_s,
                 residual,
                 joints_mask: e.joints_over.0,
                 link: (e.isolated_link + 1) as u32,
+                confidence: fit.map_or(0.0, |c| c.confidence),
+                contact_point: fit.map_or([0.0; 3], |c| c.point.into()),
+                wrench: fit.map_or([0.0; 6], |c| c.wrench_at_base().into()),
             }));
         }
         if let Some(r) = out.reaction {

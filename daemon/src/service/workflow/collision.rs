@@ -3,7 +3,8 @@
 //! `configure` range-checks every value it is given against the configured cycle and the
 //! joints' limits (the error names the field and the range), replaces the loop's monitor, and
 //! stores the settings with the payload applied now in the state directory, where the next start
-//! finds them (`persistence::StoredMonitor`).
+//! finds them (`persistence::StoredMonitor`). New thresholds or gains replace a calibration's
+//! schedule with static thresholds; a new reaction keeps it.
 
 use fri_api::protocol::{ErrorCode, OperatorError, ReactionMode};
 use fri_api::results::CollisionResult;
@@ -85,30 +86,52 @@ impl ServiceCore {
         fri_api::bounds::PAUSE_S
             .check("pause_s", pause_s)
             .map_err(OperatorError::out_of_range)?;
-        let stored = StoredMonitor {
+        // New thresholds or gains end a calibration: its schedule was fitted for the old
+        // ones (the gains set the residual's noise). The reaction keeps it.
+        let (schedule, calibration) = if change.thresholds.is_some() || change.gains.is_some() {
+            (None, None)
+        } else {
+            self.persistent(|s| {
+                s.stored_monitor.as_ref().map_or((None, None), |m| {
+                    (m.schedule.clone(), m.calibration.clone())
+                })
+            })
+        };
+        self.install_monitor(StoredMonitor {
             thresholds: t,
             gains: g,
             reaction,
             pause_s,
             set_for_payload: payload,
-        };
+            schedule,
+            calibration,
+        })
+    }
+
+    /// Puts `stored` in force (the loop's monitor is replaced, payload and arming carried over)
+    /// and persists it; `configure` and `collision-calibrate` end here.
+    pub(crate) fn install_monitor(&self, stored: StoredMonitor) -> Result<(), OperatorError> {
         let config = crate::service::with_stored_monitor(&self.config, &stored);
         config
             .validate()
             .map_err(|e| err(ErrorCode::InvalidArguments, e.to_string()))?;
-        let monitor = crate::service::build_monitor(&config, self.model.clone())
-            .map_err(|e| err(ErrorCode::InvalidArguments, e.to_string()))?;
+        let monitor = crate::service::build_scheduled_monitor(
+            &config,
+            self.model.clone(),
+            stored.schedule.as_ref(),
+        )
+        .map_err(|e| err(ErrorCode::InvalidArguments, e.to_string()))?;
         self.send(CycleRequest::ReplaceMonitor {
             monitor: Box::new(monitor),
-            react: reaction != ReactionMode::Report,
+            react: stored.reaction != ReactionMode::Report,
         })?;
         // In force from here on, whether or not the file can be written.
         let saved = self.store.save_monitor(Some(&stored));
         self.persistent(|s| {
-            s.thresholds = t;
-            s.gains = g;
-            s.reaction = reaction;
-            s.pause_s = pause_s;
+            s.thresholds = stored.thresholds;
+            s.gains = stored.gains;
+            s.reaction = stored.reaction;
+            s.pause_s = stored.pause_s;
             if saved.is_ok() {
                 s.stored_monitor = Some(stored);
             }
@@ -135,6 +158,11 @@ impl ServiceCore {
                 set_for_payload: set_for.as_ref().map(applied),
                 payload_changed: s.stored_monitor.is_some()
                     && !same_payload(set_for.as_ref(), s.payload.as_ref()),
+                schedule: s.stored_monitor.as_ref().and_then(|m| m.schedule.clone()),
+                calibration: s
+                    .stored_monitor
+                    .as_ref()
+                    .and_then(|m| m.calibration.clone()),
             }
         })
     }

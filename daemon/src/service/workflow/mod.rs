@@ -4,6 +4,7 @@
 //! static sample ([`acquire`]) and the pose pattern ([`poses`]).
 
 pub mod acquire;
+pub mod calibrate;
 pub mod collision;
 pub mod estimate;
 pub mod expect_payload;

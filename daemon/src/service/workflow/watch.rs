@@ -27,6 +27,9 @@ fn event_of(e: CycleEvent) -> Option<Event> {
                 .map(|j| j + 1)
                 .collect(),
             residual: c.residual,
+            confidence: (c.confidence > 0.0).then_some(c.confidence),
+            contact_point: (c.confidence > 0.0).then_some(c.contact_point),
+            wrench: (c.confidence > 0.0).then_some(c.wrench),
         }),
         CycleEvent::Stopped { cycle, reason, fri } => Event::Stopped(Stopped {
             cycle,

@@ -1,0 +1,445 @@
+//! `collision-calibrate`: per-joint thresholds for a false-alarm budget, fitted on a motion
+//! without contact (`docs/collision-detection.md` §7).
+//!
+//! The recording follows the loop's published states: each valid residual with the motion
+//! features of the same q and q̇ (`safety::FeatureTracker`, the computation the monitor's
+//! schedule runs each cycle). The source is the built-in excitation (the paper's q_A, q_B, q_C
+//! joint-1 sweeps and the estimation pose pattern, driven at the `[motion]` limits), the
+//! current task (recorded for `duration_s`, nothing moved by the service), or the last
+//! recording again. `safety::calibration` fits the envelope and the extreme-value scale; the
+//! result reports the fit, the covered motion and the minimum detectable force per link, and
+//! `apply` installs and persists the thresholds with the payload they were calibrated for.
+//! Any collision, stop or gap in the recording ends the workflow with its cause: a recording
+//! with a contact in it would calibrate the contact away.
+
+use fri_api::cause::Cause;
+use fri_api::pattern::PatternKind;
+use fri_api::protocol::{CalibrationSource, ErrorCode, OperatorError};
+use fri_api::results::{
+    AppliedPayload as AppliedPayloadResult, CalibrateResult, CalibrationInfo, Event, JointFit,
+    LinkForce, Phase, Progress, ThresholdSchedule, Workflow,
+};
+use safety::calibration::{Calibration, EnvelopeRecorder, FitOptions, minimum_detectable_force};
+use safety::{FeatureTracker, lwr4_link_surfaces};
+use tokio::sync::broadcast::error::RecvError;
+use tokio::sync::watch;
+
+use super::motion::SilenceTimer;
+use super::status::applied;
+use crate::operator::server::EventSink;
+use crate::persistence::{AppliedPayload, StoredMonitor};
+use crate::service::core::{ServiceCore, compensation, err, same_payload};
+use crate::service::output::CycleEvent;
+use crate::service::stream::Update;
+
+/// Default budget, false alarms per hour (one in 10 h).
+pub const DEFAULT_BUDGET_PER_HOUR: f64 = 0.1;
+/// Samples skipped after the recording starts or resumes after a gap: the feature tracker's
+/// acceleration filters settle (two 25 Hz stages).
+const TRACKER_SETTLE_SAMPLES: u32 = 100;
+/// Amplitude of the joint-1 sweeps, rad (the paper's 66.7°).
+const SWEEP_AMPLITUDE_RAD: f64 = 66.67 * std::f64::consts::PI / 180.0;
+/// Centres of the paper's sweeps q_A, q_B, q_C, deg (mock-robot/scenarios/sweep-q*.toml).
+const SWEEP_CENTRES_DEG: [[f64; 7]; 3] = [
+    [0.0, 90.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [0.0, 90.0, 0.0, 0.0, 0.0, -90.0, 0.0],
+    [0.0, 90.0, 0.0, 0.0, -90.0, 0.0, 0.0],
+];
+/// The estimation pattern of the excitation: the paper's ten poses at ±7°.
+const PATTERN_POSES: usize = 10;
+/// Its increment, deg.
+const PATTERN_STEP_DEG: f64 = 7.0;
+/// Configurations sampled per link for the minimum detectable force.
+const FORCE_SAMPLES: usize = 1000;
+
+/// A recording kept for `last-recording`.
+#[derive(Debug, Clone)]
+pub struct CalibrationRecording {
+    recorder: EnvelopeRecorder<7>,
+    payload: Option<AppliedPayload>,
+}
+
+/// The targets of the built-in excitation from `start` (rad): per sweep its centre, joint 1 at
+/// ±66.7° (less where the joint limit minus 5° is closer) twice, the centre; then the
+/// estimation pattern around `start` (when it fits inside the limits); then `start`.
+pub fn excitation_targets(model: &dynamics::Model<7>, start: &[f64; 7]) -> Vec<[f64; 7]> {
+    let limits = model.limits();
+    let margin = fri_api::bounds::AROUND_LIMIT_MARGIN_RAD;
+    let mut targets = Vec::new();
+    for centre_deg in SWEEP_CENTRES_DEG {
+        let centre = centre_deg.map(f64::to_radians);
+        let reach = (limits.position_max[0] - margin - centre[0])
+            .min(centre[0] - limits.position_min[0] + margin)
+            .min(SWEEP_AMPLITUDE_RAD);
+        let at = |offset: f64| {
+            let mut q = centre;
+            q[0] += offset;
+            q
+        };
+        targets.extend([centre, at(reach), at(-reach), at(reach), at(-reach), centre]);
+    }
+    let fits = (0..7).all(|j| {
+        let spread = PATTERN_STEP_DEG.to_radians() + margin;
+        start[j] - spread >= limits.position_min[j] && start[j] + spread <= limits.position_max[j]
+    });
+    if fits
+        && let Ok(poses) = crate::service::pattern::poses(
+            PatternKind::Paper,
+            model,
+            start,
+            PATTERN_POSES,
+            PATTERN_STEP_DEG,
+        )
+    {
+        targets.push(*start);
+        targets.extend(poses);
+    }
+    targets.push(*start);
+    targets
+}
+
+impl ServiceCore {
+    /// `collision-calibrate` (see the module documentation).
+    pub async fn collision_calibrate(
+        &self,
+        source: CalibrationSource,
+        duration_s: Option<f64>,
+        budget_per_hour: Option<f64>,
+        apply: bool,
+        events: &EventSink,
+    ) -> Result<CalibrateResult, OperatorError> {
+        let _guard = self.busy()?;
+        let budget = budget_per_hour.unwrap_or(DEFAULT_BUDGET_PER_HOUR);
+        // The parser checked the ranges; a direct caller gets the same errors.
+        fri_api::bounds::FALSE_ALARM_BUDGET
+            .check("budget_per_hour", budget)
+            .map_err(OperatorError::out_of_range)?;
+        if let Some(d) = duration_s {
+            fri_api::bounds::CALIBRATION_DURATION_S
+                .check("duration_s", d)
+                .map_err(OperatorError::out_of_range)?;
+        }
+        let recording = match source {
+            CalibrationSource::LastRecording => {
+                if duration_s.is_some() {
+                    return Err(err(
+                        ErrorCode::InvalidArguments,
+                        "`duration_s` does not go with `source: last-recording` (nothing is recorded)",
+                    ));
+                }
+                self.last_calibration_recording().ok_or_else(|| {
+                    err(
+                        ErrorCode::NotReady,
+                        "no calibration recording yet: run `collision-calibrate` with `source: excitation` or `current-task` first",
+                    )
+                })?
+            }
+            CalibrationSource::CurrentTask => {
+                let d = duration_s.ok_or_else(|| {
+                    err(
+                        ErrorCode::InvalidArguments,
+                        "`duration_s` is required with `source: current-task` (20…3600 s)",
+                    )
+                })?;
+                let (stop, _) = watch::channel(false);
+                self.record_free_motion(Some(d), stop.subscribe(), events)
+                    .await?
+            }
+            CalibrationSource::Excitation => self.excite_and_record(duration_s, events).await?,
+        };
+        self.keep_calibration_recording(recording.clone());
+        events
+            .event(&Event::Progress(Progress {
+                phase: Phase::Fitting,
+                step: None,
+                of: None,
+                workflow: Some(Workflow::Calibrate),
+                pose: None,
+                settle_s: None,
+                max_speed: None,
+            }))
+            .await;
+        let mut options = FitOptions::<7>::new(self.config.fri.cycle_s);
+        options.budget_per_hour = budget;
+        options.floor_nm = nalgebra::SVector::repeat(fri_api::bounds::MIN_THRESHOLD_NM);
+        options.ceiling_nm = nalgebra::SVector::from_fn(|j, _| fri_api::bounds::threshold(j).max);
+        let fit = recording
+            .recorder
+            .fit(&options)
+            .map_err(|e| err(ErrorCode::Failed, format!("calibration failed: {e}")))?;
+        let result = self.calibration_result(source, &fit, recording.payload)?;
+        if !apply {
+            return Ok(result);
+        }
+        let (gains, reaction, pause_s) = self.persistent(|s| (s.gains, s.reaction, s.pause_s));
+        self.install_monitor(StoredMonitor {
+            thresholds: result.schedule.thresholds,
+            gains,
+            reaction,
+            pause_s,
+            set_for_payload: recording.payload,
+            schedule: Some(result.schedule.clone()),
+            calibration: Some(result.recording.clone()),
+        })?;
+        Ok(CalibrateResult {
+            applied: true,
+            settings: self.monitor_settings(),
+            ..result
+        })
+    }
+
+    fn last_calibration_recording(&self) -> Option<CalibrationRecording> {
+        match self.calibration_recording.lock() {
+            Ok(g) => g.clone(),
+            Err(p) => p.into_inner().clone(),
+        }
+    }
+
+    fn keep_calibration_recording(&self, r: CalibrationRecording) {
+        match self.calibration_recording.lock() {
+            Ok(mut g) => *g = Some(r),
+            Err(p) => *p.into_inner() = Some(r),
+        }
+    }
+
+    /// Drives the excitation (repeated until `duration_s` of robot time, default one pass) while
+    /// recording; returns to monitor mode at the end, also after an error.
+    async fn excite_and_record(
+        &self,
+        duration_s: Option<f64>,
+        events: &EventSink,
+    ) -> Result<CalibrationRecording, OperatorError> {
+        let latest = self.latest()?;
+        let start = latest.robot.q;
+        let started_at = latest.robot.time_s;
+        let targets = excitation_targets(&self.model, &start);
+        let (stop, stopped) = watch::channel(false);
+        let excite = async {
+            let mut pass = 0;
+            let outcome = loop {
+                for (k, target) in targets.iter().enumerate() {
+                    events
+                        .event(&Event::Progress(Progress {
+                            phase: Phase::Moving,
+                            step: Some(pass * targets.len() + k + 1),
+                            of: Some(targets.len()),
+                            workflow: Some(Workflow::Calibrate),
+                            pose: Some(*target),
+                            settle_s: None,
+                            max_speed: None,
+                        }))
+                        .await;
+                    if let Err(e) = self.move_to(*target, None).await {
+                        self.release().await;
+                        let _ = stop.send(true);
+                        return Err(e);
+                    }
+                }
+                pass += 1;
+                let elapsed = self
+                    .shared
+                    .latest()
+                    .map_or(0.0, |s| s.robot.time_s - started_at);
+                if duration_s.is_none_or(|d| elapsed >= d) {
+                    break Ok(());
+                }
+            };
+            self.release().await;
+            let _ = stop.send(true);
+            outcome
+        };
+        let (moved, recorded) =
+            tokio::join!(excite, self.record_free_motion(None, stopped, events));
+        moved?;
+        recorded
+    }
+
+    /// Records residuals and motion features from the loop's states until `duration_s` of robot
+    /// time (or until `stop` turns true). A collision, a stop, a lost state or a silent
+    /// controller end it with an error; the payload must not change meanwhile.
+    async fn record_free_motion(
+        &self,
+        duration_s: Option<f64>,
+        mut stop: watch::Receiver<bool>,
+        events: &EventSink,
+    ) -> Result<CalibrationRecording, OperatorError> {
+        let payload = self.persistent(|s| s.payload);
+        let mut updates = self.shared.subscribe();
+        let comp = payload.as_ref().map(compensation).unwrap_or_default();
+        let mut tracker = FeatureTracker::new(&self.model, &comp);
+        let mut recorder = EnvelopeRecorder::<7>::new();
+        let silence = SilenceTimer::new(self.connection_timeout());
+        let cycle_s = self.config.fri.cycle_s;
+        let mut previous: Option<f64> = None;
+        let mut settle = TRACKER_SETTLE_SAMPLES;
+        let mut started: Option<f64> = None;
+        let mut reported = 0u64;
+        let total = duration_s.map(|d| d.ceil() as usize);
+        loop {
+            tokio::select! {
+                u = updates.recv() => match u {
+                    Ok(Update::Snapshot(s)) => {
+                        if let Some(e) = Self::held_error(&s.state) {
+                            return Err(e);
+                        }
+                        let r = &s.robot;
+                        let t0 = *started.get_or_insert(r.time_s);
+                        if !s.residual_valid() {
+                            previous = None;
+                            continue;
+                        }
+                        let dt = previous.map_or(cycle_s, |p| r.time_s - p);
+                        if previous.is_none() || dt > 3.5 * cycle_s || dt <= 0.0 {
+                            // A gap the monitor did not bridge: the features start over.
+                            tracker.reset();
+                            settle = TRACKER_SETTLE_SAMPLES;
+                        }
+                        previous = Some(r.time_s);
+                        let q = nalgebra::SVector::from(r.q);
+                        let qd = nalgebra::SVector::from(r.qd);
+                        let features = *tracker.step(&q, &qd, dt.max(cycle_s * 0.5));
+                        if settle > 0 {
+                            settle -= 1;
+                        } else {
+                            recorder.push(&nalgebra::SVector::from(r.residual), &features);
+                        }
+                        let elapsed = r.time_s - t0;
+                        if elapsed as u64 > reported {
+                            reported = elapsed as u64;
+                            events
+                                .event(&Event::Progress(Progress {
+                                    phase: Phase::Recording,
+                                    step: Some(reported as usize),
+                                    of: total,
+                                    workflow: Some(Workflow::Calibrate),
+                                    pose: None,
+                                    settle_s: None,
+                                    max_speed: None,
+                                }))
+                                .await;
+                        }
+                        if duration_s.is_some_and(|d| elapsed >= d) {
+                            break;
+                        }
+                    }
+                    Ok(Update::Event(CycleEvent::Collision(c))) => {
+                        return Err(err(
+                            ErrorCode::Aborted,
+                            format!(
+                                "collision detected during the calibration recording (link {}, {:.3} s): the recording is discarded. If nothing touched the arm, the thresholds in force are too low for this motion: raise them with `collision configure` (or disarm the monitor and watch the arm) and calibrate again",
+                                c.link, c.time_s
+                            ),
+                        )
+                        .with_cause(Cause::Collision {
+                            link: c.link,
+                            time_s: c.time_s,
+                            residual: c.residual,
+                        }));
+                    }
+                    Ok(Update::Event(CycleEvent::Stopped { reason, fri, .. })) => {
+                        return Err(Self::stop_error(reason, fri));
+                    }
+                    Ok(Update::Event(_)) => {}
+                    Err(RecvError::Lagged(n)) => {
+                        tracing::warn!(lost = n, "calibration recording fell behind; the features start over");
+                        previous = None;
+                    }
+                    Err(RecvError::Closed) => {
+                        return Err(err(ErrorCode::NotReady, "the FRI loop has stopped"));
+                    }
+                },
+                changed = stop.changed() => {
+                    if changed.is_err() || *stop.borrow() {
+                        break;
+                    }
+                }
+                silent = silence.silence() => {
+                    return Err(self.silent_error(silent.as_secs_f64()));
+                }
+            }
+        }
+        let now = self.persistent(|s| s.payload);
+        if !same_payload(payload.as_ref(), now.as_ref()) {
+            return Err(err(
+                ErrorCode::Failed,
+                "the applied payload changed during the calibration recording: calibrate again with the payload the task carries",
+            ));
+        }
+        Ok(CalibrationRecording { recorder, payload })
+    }
+
+    /// The result of a fit: per-joint fits, the schedule, the minimum detectable forces.
+    fn calibration_result(
+        &self,
+        source: CalibrationSource,
+        fit: &Calibration<7>,
+        payload: Option<AppliedPayload>,
+    ) -> Result<CalibrateResult, OperatorError> {
+        let surfaces = lwr4_link_surfaces();
+        let forces = |theta: &nalgebra::SVector<f64, 7>| -> [LinkForce; 7] {
+            let f =
+                minimum_detectable_force(&self.model, &surfaces, theta, FORCE_SAMPLES, 0.8, 2017);
+            std::array::from_fn(|l| LinkForce {
+                median: f[l].median_n,
+                p10: f[l].p10_n,
+                p90: f[l].p90_n,
+            })
+        };
+        let array = |v: &nalgebra::SVector<f64, 7>| -> [f64; 7] { std::array::from_fn(|j| v[j]) };
+        let joints: Vec<JointFit> = fit
+            .joints
+            .iter()
+            .map(|j| JointFit {
+                threshold_at_rest: j.threshold_at_rest_nm,
+                threshold_median: j.threshold_median_nm,
+                threshold_max: j.threshold_max_nm,
+                envelope: j.envelope,
+                model: match j.model {
+                    safety::calibration::ExtremeModel::Gumbel => "gumbel".to_owned(),
+                    safety::calibration::ExtremeModel::Gev => "gev".to_owned(),
+                },
+                shape_interval: j.shape_interval,
+                scale: j.scale,
+                scale_point: j.scale_point,
+                scale_std: j.scale_std,
+                scale_interval: j.scale_interval,
+                peak: j.peak_nm,
+                exceedances: j.exceedances,
+            })
+            .collect();
+        if joints.len() != 7 {
+            return Err(err(ErrorCode::Internal, "calibration without seven joints"));
+        }
+        let schedule = ThresholdSchedule {
+            thresholds: array(&fit.thresholds_nm),
+            speed: array(&fit.velocity_coefficients),
+            velocity_noise: array(&fit.schedule.velocity_noise),
+            payload_dynamics: array(&fit.schedule.payload_dynamics),
+            inertial: array(&fit.schedule.inertial),
+            gravity: array(&fit.schedule.gravity),
+            scale: array(&fit.scale),
+        };
+        let recording = CalibrationInfo {
+            budget_per_hour: fit.budget_per_hour,
+            duration_s: fit.duration_s,
+            blocks: fit.blocks,
+            block_s: fit.block_s,
+            max_speed: std::array::from_fn(|j| fit.joints[j].max_speed),
+            max_acceleration: std::array::from_fn(|j| fit.joints[j].max_acceleration),
+        };
+        let payload_result: Option<AppliedPayloadResult> = payload.as_ref().map(applied);
+        Ok(CalibrateResult {
+            source,
+            budget_per_hour: fit.budget_per_hour,
+            confidence: fit.confidence,
+            recording,
+            joints,
+            min_force_at_rest: forces(&fit.thresholds_nm),
+            min_force_median: forces(&fit.median_thresholds_nm),
+            schedule,
+            calibrated_for_payload: payload_result,
+            applied: false,
+            settings: self.monitor_settings(),
+        })
+    }
+}

@@ -1,0 +1,200 @@
+//! `collision-calibrate` through the operator socket of the whole daemon in-process against the
+//! mock robot in lockstep: the built-in excitation is driven and recorded, the thresholds come out
+//! per joint, a tighter budget raises them, `apply` installs and stores them with the payload, the
+//! next start restores them, and bad arguments are refused naming the field and its range.
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
+mod common;
+
+use common::*;
+use fri_api::cause::Cause;
+use fri_api::protocol::{CalibrationSource, CollisionAction, Command, ErrorCode, OperatorError};
+use fri_api::results::{CalibrateResult, CollisionResult};
+use mock_robot::ServerConfig;
+
+fn calibrate(
+    source: Option<CalibrationSource>,
+    duration_s: Option<f64>,
+    budget_per_hour: Option<f64>,
+    apply: bool,
+) -> Command {
+    Command::CollisionCalibrate {
+        source,
+        duration_s,
+        budget_per_hour,
+        apply: Some(apply),
+    }
+}
+
+fn show() -> Command {
+    Command::Collision {
+        action: CollisionAction::Show,
+        thresholds: None,
+        gains: None,
+        reaction: None,
+        pause_s: None,
+    }
+}
+
+async fn typed<T: serde::de::DeserializeOwned>(
+    c: &mut fri_api::client::Client,
+    cmd: Command,
+) -> Result<T, OperatorError> {
+    call(c, cmd)
+        .await
+        .map(|v| serde_json::from_value(v).unwrap())
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn calibrated_thresholds_are_per_joint_follow_the_budget_and_survive_a_restart() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = test_config(dir.path());
+    let h = Harness::start(config.clone(), dir).await;
+    let driver =
+        mock_robot::spawn_new(sim(false, 21), ServerConfig::loopback(h.fri, lockstep())).unwrap();
+    let mut c = h.client().await;
+    wait_connected(&mut c).await;
+
+    // Bad arguments first: nothing moves.
+    let cases = [
+        (
+            calibrate(None, None, Some(100.0), false),
+            "budget_per_hour = 100 1/h is outside 0.0001…10 1/h",
+        ),
+        (
+            calibrate(Some(CalibrationSource::CurrentTask), Some(5.0), None, false),
+            "duration_s = 5 s is outside 20…3600 s",
+        ),
+    ];
+    for (command, message) in cases {
+        let e = typed::<CalibrateResult>(&mut c, command).await.unwrap_err();
+        assert_eq!(e.code, ErrorCode::InvalidArguments, "{e:?}");
+        assert_eq!(e.message, message);
+        assert!(matches!(e.cause.as_deref(), Some(Cause::OutOfRange { .. })));
+    }
+    let e = typed::<CalibrateResult>(
+        &mut c,
+        calibrate(Some(CalibrationSource::CurrentTask), None, None, false),
+    )
+    .await
+    .unwrap_err();
+    assert_eq!(e.code, ErrorCode::InvalidArguments);
+    assert!(e.message.contains("`duration_s` is required"), "{e:?}");
+    let e = typed::<CalibrateResult>(
+        &mut c,
+        calibrate(Some(CalibrationSource::LastRecording), None, None, false),
+    )
+    .await
+    .unwrap_err();
+    assert_eq!(e.code, ErrorCode::NotReady, "{e:?}");
+    let line = br#"{"id": 3, "cmd": "collision-calibrate", "source": "somewhere"}"#;
+    let e = fri_api::protocol::parse_request(line).unwrap_err().1;
+    assert_eq!(e.code, ErrorCode::InvalidArguments, "{e:?}");
+
+    // The excitation, previewed: progress while it moves, records and fits.
+    let mut phases = std::collections::BTreeSet::new();
+    let v = c
+        .call(calibrate(None, None, None, false), |ev, data| {
+            assert_eq!(ev, "progress");
+            phases.insert(data["phase"].as_str().unwrap_or("").to_owned());
+        })
+        .await
+        .unwrap()
+        .unwrap();
+    let first: CalibrateResult = serde_json::from_value(v).unwrap();
+    for phase in ["moving", "recording", "fitting"] {
+        assert!(phases.contains(phase), "{phases:?}");
+    }
+    assert!(!first.applied);
+    assert_eq!(first.joints.len(), 7);
+    assert!(first.recording.blocks >= 20, "{:?}", first.recording);
+    // The excitation moved joint 1 at the configured speed limit.
+    assert!(first.recording.max_speed[0] > 0.5, "{:?}", first.recording);
+    // Per joint: the wrist's thresholds (short levers, small inertia, little velocity noise)
+    // sit below the shoulder's.
+    let median: Vec<f64> = first.joints.iter().map(|j| j.threshold_median).collect();
+    assert!(
+        median[5].max(median[6]) < median[0].min(median[1]),
+        "{median:?}"
+    );
+    for j in &first.joints {
+        assert!(j.scale.is_finite() && j.scale >= j.scale_point, "{j:?}");
+        assert!(j.scale_std >= 0.0 && j.scale_interval[0] <= j.scale_interval[1]);
+    }
+    for l in 0..7 {
+        assert!(first.min_force_at_rest[l].median <= first.min_force_median[l].median);
+    }
+    let before: CollisionResult = typed(&mut c, show()).await.unwrap();
+    assert!(before.schedule.is_none() && before.calibration.is_none());
+
+    // A tighter budget on the same recording raises every threshold.
+    let tight: CalibrateResult = typed(
+        &mut c,
+        calibrate(
+            Some(CalibrationSource::LastRecording),
+            None,
+            Some(0.001),
+            false,
+        ),
+    )
+    .await
+    .unwrap();
+    for (a, b) in first.joints.iter().zip(&tight.joints) {
+        assert!(b.scale > a.scale, "{a:?} {b:?}");
+        assert!(b.threshold_median > a.threshold_median, "{a:?} {b:?}");
+        assert!(b.threshold_at_rest >= a.threshold_at_rest, "{a:?} {b:?}");
+    }
+
+    // Applied: in force, stored with the payload (none here).
+    let applied: CalibrateResult = typed(
+        &mut c,
+        calibrate(Some(CalibrationSource::LastRecording), None, None, true),
+    )
+    .await
+    .unwrap();
+    assert!(applied.applied);
+    let m = &applied.settings;
+    assert!(m.persisted && !m.payload_changed);
+    assert_eq!(m.thresholds, first.schedule.thresholds);
+    assert_eq!(m.schedule.as_ref(), Some(&first.schedule));
+    assert_eq!(m.calibration.as_ref().unwrap().budget_per_hour, 0.1);
+    drop(c);
+    drop(driver.join());
+    let dir = h.stop().await;
+
+    // The next start restores the calibrated settings; another payload asks for a new
+    // calibration.
+    let h = Harness::start(config, dir).await;
+    let mut c = h.client().await;
+    let m: CollisionResult = typed(&mut c, show()).await.unwrap();
+    assert_eq!(m.thresholds, first.schedule.thresholds);
+    assert_eq!(m.schedule.as_ref(), Some(&first.schedule));
+    assert!(m.calibration.is_some() && m.persisted && !m.payload_changed);
+    call(
+        &mut c,
+        Command::ApplyPayload {
+            mass: 2.0,
+            com: [0.0, 0.0, 0.1],
+        },
+    )
+    .await
+    .unwrap();
+    let m: CollisionResult = typed(&mut c, show()).await.unwrap();
+    assert!(m.payload_changed, "{m:?}");
+    // New thresholds by hand end the calibration's schedule.
+    let m: CollisionResult = typed(
+        &mut c,
+        Command::Collision {
+            action: CollisionAction::Configure,
+            thresholds: Some([6.0; 7]),
+            gains: None,
+            reaction: None,
+            pause_s: None,
+        },
+    )
+    .await
+    .unwrap();
+    assert!(m.schedule.is_none() && m.calibration.is_none(), "{m:?}");
+    drop(c);
+    h.stop().await;
+}

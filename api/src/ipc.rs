@@ -108,6 +108,15 @@ pub struct CollisionMessage {
     pub joints_mask: u32,
     /// Isolated link (1..7, the most distal joint over threshold); 0 when unknown.
     pub link: u32,
+    /// Estimated contact wrench for a contact isolated on the last link (`link` 7): force (N)
+    /// then moment about the assumed contact point, the flange origin (Nm), both in the base
+    /// frame, from the residual at the onset; zero when [`Self::wrench_valid`] is 0.
+    pub contact_wrench: [f64; 6],
+    /// 1 when [`Self::contact_wrench`] holds an estimate, 0 otherwise (another link, or the
+    /// estimate's system was singular).
+    pub wrench_valid: u32,
+    /// Reserved, zero.
+    pub reserved: u32,
 }
 
 /// A payload estimate (published after `estimate-payload`, and on apply/clear), on

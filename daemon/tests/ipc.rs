@@ -108,7 +108,10 @@ fn subscriber_receives_state_events_and_payload_and_cleanup_leaves_nothing() {
             time_s: 8.0,
             residual: [0.0, 0.0, 0.0, 9.5, 0.0, 7.0, 0.0],
             joints_mask: 0b10_1000,
-            link: 6,
+            link: 7,
+            contact_wrench: [1.0, -2.0, 30.0, 0.5, 0.0, -0.25],
+            wrench_valid: 1,
+            reserved: 0,
         };
         publisher.publish_collision(&ev).unwrap();
         assert_eq!(*coll_sub.receive().unwrap().unwrap().payload(), ev);

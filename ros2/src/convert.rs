@@ -143,6 +143,7 @@ mod tests {
             residual: [0.0, 0.0, 0.0, 9.5, 0.0, 7.0, 0.0],
             joints_mask: 0b10_1000,
             link: 6,
+            ..CollisionMessage::default()
         };
         let c = collision(&e, &names());
         assert_eq!(

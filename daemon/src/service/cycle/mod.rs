@@ -275,12 +275,19 @@ impl CycleProcessor {
         {
             let mut residual = [0.0; 7];
             residual.copy_from_slice(e.residual.as_slice());
+            let mut contact_wrench = [0.0; 6];
+            if let Some(w) = &e.contact_wrench {
+                contact_wrench.copy_from_slice(w.as_slice());
+            }
             self.emit(CycleEvent::Collision(CollisionMessage {
                 cycle: self.cycle,
                 time_s: self.time_s,
                 residual,
                 joints_mask: e.joints_over.0,
                 link: (e.isolated_link + 1) as u32,
+                contact_wrench,
+                wrench_valid: u32::from(e.contact_wrench.is_some()),
+                reserved: 0,
             }));
         }
         if let Some(r) = out.reaction {

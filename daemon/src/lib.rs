@@ -12,6 +12,7 @@ pub mod motion;
 pub mod operator;
 pub mod persistence;
 pub mod recordings;
+pub mod ros_messages;
 pub mod service;
 pub mod testkit;
 

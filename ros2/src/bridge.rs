@@ -52,6 +52,11 @@ struct Sink {
     stats: Arc<Stats>,
     payload_frame: String,
     last_payload: LastPayload,
+    /// The robot model, for the pose of the contact wrench's frame.
+    model: dynamics::Model<JOINTS>,
+    /// A collision onset with a contact wrench, waiting for the state of its cycle (which the
+    /// service publishes after the event): the wrench is expressed at that state's pose.
+    pending_wrench: Option<fri_api::ipc::CollisionMessage>,
 }
 
 impl Sink {
@@ -60,8 +65,14 @@ impl Sink {
             Input::State(s) => {
                 self.stats.states.fetch_add(1, Ordering::Relaxed);
                 self.stats.last_cycle.store(s.cycle, Ordering::Relaxed);
+                if let Some(c) = self.pending_wrench.take_if(|c| s.cycle >= c.cycle)
+                    && let Some(w) =
+                        fri_service::ros_messages::contact_wrench(&self.model, &c, &s.q)
+                {
+                    self.publishers.contact_wrench.publish(w);
+                }
                 if self.decimator.take(s.time_s) {
-                    let m = crate::convert::joint_states(&s, &self.names);
+                    let m = fri_service::ros_messages::joint_states(&s, &self.names);
                     self.publishers.joint_states.publish(m.measured);
                     self.publishers.external_torque.publish(m.external_torque);
                     self.publishers
@@ -74,22 +85,27 @@ impl Sink {
                 self.stats.collisions.fetch_add(1, Ordering::Relaxed);
                 self.publishers
                     .collision
-                    .publish(crate::convert::collision(&c, &self.names));
+                    .publish(fri_service::ros_messages::collision(&c, &self.names));
+                if c.wrench_valid != 0 {
+                    self.pending_wrench = Some(c);
+                }
             }
-            Input::Payload(p) => match crate::convert::applied_payload(&p, &self.payload_frame) {
-                Some(applied) => publish_payload(&self.publishers, &self.last_payload, applied),
-                None => self
-                    .publishers
-                    .payload_estimate
-                    .publish(crate::convert::payload(
-                        p.time_s,
-                        p.mass,
-                        p.com,
-                        &self.payload_frame,
-                    )),
-            },
+            Input::Payload(p) => {
+                match fri_service::ros_messages::applied_payload(&p, &self.payload_frame) {
+                    Some(applied) => publish_payload(&self.publishers, &self.last_payload, applied),
+                    None => self.publishers.payload_estimate.publish(
+                        fri_service::ros_messages::payload(
+                            p.time_s,
+                            p.mass,
+                            p.com,
+                            &self.payload_frame,
+                        ),
+                    ),
+                }
+            }
             Input::Opened => {
                 self.stats.opened.fetch_add(1, Ordering::Relaxed);
+                self.pending_wrench = None;
                 // A restarted service counts time from zero again.
                 self.decimator.reset();
             }
@@ -136,6 +152,9 @@ pub async fn run(
         stats: stats.clone(),
         payload_frame: config.ros2.payload_frame.clone(),
         last_payload: last_payload.clone(),
+        // The service's only model (`robot.model = "lwr4"`, checked by its configuration).
+        model: dynamics::lwr4(),
+        pending_wrench: None,
     };
     let (stop, input) = crate::ipc::spawn(config.ipc_names(), move |i| sink.handle(i))
         .map_err(BridgeError::Thread)?;
@@ -239,7 +258,7 @@ pub async fn run(
                 if let Ok(s) = &status {
                     // The service's applied payload: right after the bridge or the service
                     // (re)started, and whenever it changed without an iceoryx2 message.
-                    let p = crate::convert::status_payload(
+                    let p = fri_service::ros_messages::status_payload(
                         s.payload.as_ref(),
                         s.time_s.unwrap_or(0.0),
                         &frame,

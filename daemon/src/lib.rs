@@ -8,6 +8,7 @@
 
 pub mod config;
 pub mod ipc;
+pub mod mcap_recording;
 pub mod motion;
 pub mod operator;
 pub mod persistence;

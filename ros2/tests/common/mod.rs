@@ -25,9 +25,9 @@ pub fn workspace() -> PathBuf {
 
 static VENV: Mutex<()> = Mutex::new(());
 
-/// The Python of the peers' virtual environment (`target/python-peers`), created with
-/// `tools/python_peers.sh` when it is missing (a fresh checkout), so `cargo test` needs only
-/// `python3` on the machine.
+/// The Python of the peers' virtual environment (`target/python-peers`), created (or completed)
+/// with `tools/python_peers.sh` when it is missing or lacks a peer package (a fresh checkout, an
+/// older list), so `cargo test` needs only `python3` on the machine.
 pub fn peers_python() -> PathBuf {
     let _one_at_a_time = VENV.lock().unwrap_or_else(|e| e.into_inner());
     let root = workspace();
@@ -35,7 +35,7 @@ pub fn peers_python() -> PathBuf {
     let python = venv.join("bin").join("python");
     let ready = python.exists()
         && Command::new(&python)
-            .args(["-c", "import cyclonedds"])
+            .args(["-c", "import cyclonedds, mcap, mcap_ros2.decoder"])
             .status()
             .is_ok_and(|s| s.success());
     if !ready {

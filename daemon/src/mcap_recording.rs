@@ -45,6 +45,9 @@ pub enum McapRecordingError {
 }
 
 /// What the recording holds besides the per-cycle state.
+// Sent by value through the writer's preallocated queue once per cycle: boxing the state would
+// allocate every cycle.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq)]
 pub enum Item {
     /// One cycle's state: `/joint_states`, `<ns>/external_torque`, `<ns>/controller_gravity`.

@@ -639,3 +639,113 @@ fn planar_2r_pose_design() {
     assert!(v["predicted"]["mass_std"].as_f64().unwrap() > 0.0);
     assert!(v["predicted"]["com_std"][2].is_null());
 }
+
+/// Writes `log` as the service's MCAP recorder does (`record --kind mcap`): one robot state per
+/// row, stamped with the row's time.
+fn write_mcap_log(path: &std::path::Path, log: &estimator::motion::Trajectory<7>) {
+    use fri_service::mcap_recording::{Item, McapRecording, McapSettings};
+    let file = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    let settings = McapSettings {
+        namespace: "/lwr".into(),
+        cycle_s: 0.005,
+    };
+    let mut rec = McapRecording::create(file, settings).unwrap();
+    for (k, t) in log.t.iter().enumerate() {
+        let state = fri_api::ipc::RobotState {
+            cycle: k as u64 + 1,
+            time_s: *t,
+            q: log.q[k].into(),
+            tau: log.tau[k].into(),
+            ..fri_api::ipc::RobotState::default()
+        };
+        rec.item(&Item::State(state)).unwrap();
+    }
+    rec.finish().unwrap();
+}
+
+/// `estimate-motion` reads the service's MCAP recordings (`/joint_states`: header stamp, position,
+/// effort) as it reads CSV logs: the same sweeps give the same estimate, a lost cycle is a gap,
+/// and a recording without joint states is refused by name.
+#[test]
+fn estimate_motion_reads_mcap_recordings_like_csv_logs() {
+    use std::f64::consts::FRAC_PI_2;
+    let dir = tempfile::tempdir().unwrap();
+    let fixed = [
+        [FRAC_PI_2, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [FRAC_PI_2, 0.0, 0.0, 0.0, -FRAC_PI_2, 0.0],
+        [FRAC_PI_2, 0.0, 0.0, -FRAC_PI_2, 0.0, 0.0],
+    ];
+    let mut csvs = Vec::new();
+    let mut mcaps = Vec::new();
+    for (i, f) in fixed.into_iter().enumerate() {
+        let csv = dir.path().join(format!("sweep{i}.csv"));
+        write_sweep_log(&csv, f);
+        if i == 0 {
+            // Three lost cycles in the middle of the first recording.
+            let text = std::fs::read_to_string(&csv).unwrap();
+            let mut lines: Vec<&str> = text.lines().collect();
+            let middle = lines.len() / 2;
+            lines.drain(middle..middle + 3);
+            std::fs::write(&csv, lines.join("\n") + "\n").unwrap();
+        }
+        let log =
+            estimator::motion::read_log_csv::<7, _>(std::fs::File::open(&csv).unwrap()).unwrap();
+        let mcap = dir.path().join(format!("sweep{i}.mcap"));
+        write_mcap_log(&mcap, &log);
+        csvs.push(csv.to_string_lossy().into_owned());
+        mcaps.push(mcap.to_string_lossy().into_owned());
+    }
+    let run = |logs: &[String], json: bool| {
+        let mut args = vec!["estimate-motion"];
+        for l in logs {
+            args.extend(["--log", l.as_str()]);
+        }
+        if json {
+            args.push("--json");
+            Some(ok_json(&args))
+        } else {
+            let out = fri_ctl(&args);
+            assert!(
+                out.status.success(),
+                "{}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            let text = String::from_utf8(out.stdout).unwrap();
+            assert!(
+                text.contains("1 gaps (lost cycles)") && text.contains("2 contiguous pieces"),
+                "{text}"
+            );
+            None
+        }
+    };
+    let from_csv = run(&csvs, true).unwrap();
+    let from_mcap = run(&mcaps, true).unwrap();
+    run(&mcaps, false);
+    let m = from_mcap["mass"].as_f64().unwrap();
+    assert!((m / 3.028 - 1.0).abs() < 0.005, "{m}");
+    // Stamps are whole nanoseconds in MCAP: the estimate equals the CSV one to rounding.
+    for (a, b) in from_csv["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(from_mcap["parameters"].as_array().unwrap())
+    {
+        let (a, b) = (a.as_f64().unwrap(), b.as_f64().unwrap());
+        assert!((a - b).abs() <= 1e-9 * a.abs().max(1e-3), "{a} vs {b}");
+    }
+    // An MCAP file without joint states.
+    let empty = dir.path().join("empty.mcap");
+    write_mcap_log(
+        &empty,
+        &estimator::motion::Trajectory {
+            t: Vec::new(),
+            q: Vec::new(),
+            tau: Vec::new(),
+        },
+    );
+    let e = err_text(&["estimate-motion", "--log", empty.to_str().unwrap()]);
+    assert!(
+        e.contains("empty.mcap") && e.contains("no /joint_states"),
+        "{e}"
+    );
+}

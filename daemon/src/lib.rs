@@ -8,10 +8,12 @@
 
 pub mod config;
 pub mod ipc;
+pub mod mcap_recording;
 pub mod motion;
 pub mod operator;
 pub mod persistence;
 pub mod recordings;
+pub mod ros_messages;
 pub mod service;
 pub mod testkit;
 

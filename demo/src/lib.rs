@@ -3,4 +3,5 @@
 //! the daemon and the operator client so that mock-robot and plotters stay out of both.
 
 pub mod plots;
+pub mod ros2;
 pub mod run;

@@ -36,6 +36,11 @@ enum Cmd {
         /// Run the simulated controller in lockstep (faster than real time) instead of real time.
         #[arg(long)]
         lockstep: bool,
+        /// Next to the ROS 2 bridge: publish over iceoryx2, write the service's configuration
+        /// to FILE (default target/demo/fri-service.toml) for `cargo run --release -p fri-ros2
+        /// -- --config FILE`, and keep the service up after the demo until Ctrl-C.
+        #[arg(long, value_name = "FILE", num_args = 0..=1, default_missing_value = "target/demo/fri-service.toml")]
+        ros2: Option<PathBuf>,
     },
 }
 
@@ -55,7 +60,8 @@ fn main() -> ExitCode {
             out,
             seed,
             lockstep,
-        } => demo(json, out, seed, lockstep, &mut stdout),
+            ros2,
+        } => demo(json, out, seed, lockstep, ros2, &mut stdout),
     };
     ExitCode::from(exit_status(result, &mut stdout, EXIT_FAILED))
 }
@@ -69,6 +75,7 @@ fn demo(
     out: PathBuf,
     seed: u64,
     lockstep: bool,
+    ros2: Option<PathBuf>,
     stdout: &mut Stdout,
 ) -> anyhow::Result<()> {
     let opts = DemoOptions {
@@ -82,6 +89,7 @@ fn demo(
             TimingMode::RealTime
         },
         verbose: true,
+        ros2_config: ros2,
     };
     let rt = runtime()?;
     let report = rt.block_on(run_demo(&opts))?;

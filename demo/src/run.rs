@@ -61,6 +61,9 @@ pub struct DemoOptions {
     pub pacing: TimingMode,
     /// Print progress lines.
     pub verbose: bool,
+    /// Publish over iceoryx2, write the service's configuration here for the ROS 2 bridge, and
+    /// keep the service up after the demo until Ctrl-C (`demo --ros2`).
+    pub ros2_config: Option<PathBuf>,
 }
 
 /// A payload with optional uncertainties (frame 7).
@@ -229,7 +232,10 @@ pub async fn run(opts: &DemoOptions) -> anyhow::Result<DemoReport> {
 }
 
 async fn run_in(opts: &DemoOptions, work: &Path) -> anyhow::Result<DemoReport> {
-    let config = demo_config(work);
+    let mut config = demo_config(work);
+    if let Some(path) = &opts.ros2_config {
+        crate::ros2::prepare(&mut config, path)?;
+    }
     let cycle_s = config.fri.cycle_s;
     let service = Arc::new(RunningService::start(config.clone())?);
     let fri = service
@@ -246,7 +252,24 @@ async fn run_in(opts: &DemoOptions, work: &Path) -> anyhow::Result<DemoReport> {
         }
         tokio::time::sleep(Duration::from_millis(5)).await;
     }
-    let outcome = phases(opts, &config, fri, cycle_s).await;
+    let mut outcome = phases(opts, &config, fri, cycle_s).await;
+    if let (Ok(report), Some(path)) = (&outcome, &opts.ros2_config) {
+        say(
+            opts,
+            format!(
+                "demo done (payload {:.4} kg); the service stays up for the ROS 2 bridge \
+                 (`cargo run --release -p fri-ros2 -- --config {}`) until Ctrl-C ...",
+                report.payload_estimate.mass,
+                path.display()
+            ),
+        );
+        if let Err(e) = crate::ros2::serve_until_interrupted(fri).await {
+            outcome = Err(e);
+        }
+    }
+    if let Some(path) = &opts.ros2_config {
+        let _ = std::fs::remove_file(path);
+    }
     let _ = shutdown.send(true);
     let _ = server.await;
     if let Ok(s) = Arc::try_unwrap(service) {

@@ -13,6 +13,7 @@ pub mod cdr;
 pub mod diagnostic_msgs;
 pub mod fri_msgs;
 pub mod geometry_msgs;
+pub mod names;
 pub mod sensor_msgs;
 pub mod std_msgs;
 mod types;

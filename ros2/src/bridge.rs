@@ -61,7 +61,7 @@ impl Sink {
                 self.stats.states.fetch_add(1, Ordering::Relaxed);
                 self.stats.last_cycle.store(s.cycle, Ordering::Relaxed);
                 if self.decimator.take(s.time_s) {
-                    let m = crate::convert::joint_states(&s, &self.names);
+                    let m = fri_service::ros_messages::joint_states(&s, &self.names);
                     self.publishers.joint_states.publish(m.measured);
                     self.publishers.external_torque.publish(m.external_torque);
                     self.publishers
@@ -74,20 +74,24 @@ impl Sink {
                 self.stats.collisions.fetch_add(1, Ordering::Relaxed);
                 self.publishers
                     .collision
-                    .publish(crate::convert::collision(&c, &self.names));
+                    .publish(fri_service::ros_messages::collision(&c, &self.names));
+                if let Some(w) = fri_service::ros_messages::contact_wrench(&c) {
+                    self.publishers.contact_wrench.publish(w);
+                }
             }
-            Input::Payload(p) => match crate::convert::applied_payload(&p, &self.payload_frame) {
-                Some(applied) => publish_payload(&self.publishers, &self.last_payload, applied),
-                None => self
-                    .publishers
-                    .payload_estimate
-                    .publish(crate::convert::payload(
-                        p.time_s,
-                        p.mass,
-                        p.com,
-                        &self.payload_frame,
-                    )),
-            },
+            Input::Payload(p) => {
+                match fri_service::ros_messages::applied_payload(&p, &self.payload_frame) {
+                    Some(applied) => publish_payload(&self.publishers, &self.last_payload, applied),
+                    None => self.publishers.payload_estimate.publish(
+                        fri_service::ros_messages::payload(
+                            p.time_s,
+                            p.mass,
+                            p.com,
+                            &self.payload_frame,
+                        ),
+                    ),
+                }
+            }
             Input::Opened => {
                 self.stats.opened.fetch_add(1, Ordering::Relaxed);
                 // A restarted service counts time from zero again.
@@ -239,7 +243,7 @@ pub async fn run(
                 if let Ok(s) = &status {
                     // The service's applied payload: right after the bridge or the service
                     // (re)started, and whenever it changed without an iceoryx2 message.
-                    let p = crate::convert::status_payload(
+                    let p = fri_service::ros_messages::status_payload(
                         s.payload.as_ref(),
                         s.time_s.unwrap_or(0.0),
                         &frame,

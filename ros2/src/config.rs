@@ -15,7 +15,7 @@ pub const JOINTS: usize = fri_api::JOINTS;
 /// Largest DDS domain id ROS 2 allows (UDP ports of higher ids overflow, REP 2004 / rmw docs).
 pub const MAX_DOMAIN_ID: u16 = 232;
 /// Longest namespace, characters.
-pub const MAX_NAMESPACE_LEN: usize = 100;
+pub const MAX_NAMESPACE_LEN: usize = fri_ros_msgs::names::MAX_NAMESPACE_LEN;
 /// Longest joint name, characters.
 pub const MAX_JOINT_NAME_LEN: usize = 64;
 /// Highest joint-state rate, Hz (every cycle at 1 ms).
@@ -23,42 +23,10 @@ pub const MAX_JOINT_STATES_HZ: u32 = 1000;
 /// Range of the diagnostics rate, Hz.
 pub const DIAGNOSTICS_HZ: (f64, f64) = (0.1, 10.0);
 
-/// Errors loading the configuration.
-#[derive(Debug, thiserror::Error)]
-pub enum BridgeConfigError {
-    /// The file could not be read.
-    #[error("cannot read config file {path}: {source}")]
-    Read {
-        /// File that failed.
-        path: PathBuf,
-        /// Underlying I/O error.
-        source: std::io::Error,
-    },
-    /// Not TOML, unknown keys or wrong types in `[ros2]`.
-    #[error("config file {path}: {message}")]
-    Parse {
-        /// File that failed.
-        path: PathBuf,
-        /// Parser message (names the key).
-        message: String,
-    },
-    /// A `[ros2]` value is out of its range.
-    #[error("config key `{key}`: {reason}")]
-    Invalid {
-        /// Dotted key, e.g. `ros2.domain_id`.
-        key: String,
-        /// The value and the allowed range.
-        reason: String,
-    },
-    /// The service's part of the file is invalid (the service would refuse it too).
-    #[error("config file {path}: {source}")]
-    Service {
-        /// File that failed.
-        path: PathBuf,
-        /// The service's error (names the key).
-        source: ConfigError,
-    },
-}
+/// Errors loading the bridge's configuration: the service's own [`ConfigError`] (the file
+/// cannot be read, is not TOML or has unknown keys, or a value is out of range); the `[ros2]`
+/// keys fail with the same variants, naming the dotted key (`ros2.domain_id`).
+pub type BridgeConfigError = ConfigError;
 
 /// How ROS 2 services map onto DDS topics (must match the peer's middleware).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -136,7 +104,7 @@ pub struct BridgeConfig {
 impl BridgeConfig {
     /// Reads and validates `path`: the service's keys as the service checks them, then `[ros2]`.
     pub fn load(path: &Path) -> Result<Self, BridgeConfigError> {
-        let text = std::fs::read_to_string(path).map_err(|source| BridgeConfigError::Read {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
             path: path.to_owned(),
             source,
         })?;
@@ -146,16 +114,13 @@ impl BridgeConfig {
     /// Parses and validates configuration text (`path` only names the file in errors; a
     /// relative `ros2.robot_description` is relative to the working directory).
     pub fn from_toml(text: &str, path: &Path) -> Result<Self, BridgeConfigError> {
-        let parse = |message: String| BridgeConfigError::Parse {
+        let parse = |message: String| ConfigError::Parse {
             path: path.to_owned(),
             message,
         };
         let mut service = ServiceConfig::from_toml(text).map_err(|e| match e {
             ConfigError::Parse { message, .. } => parse(message),
-            source => BridgeConfigError::Service {
-                path: path.to_owned(),
-                source,
-            },
+            other => other,
         })?;
         let ros2: Ros2Config = match service.ros2.take() {
             Some(t) => toml::Value::Table(t)
@@ -227,12 +192,12 @@ impl BridgeConfig {
 
     /// `name` in the bridge's namespace, e.g. `/lwr/payload`.
     pub fn in_namespace(&self, name: &str) -> String {
-        format!("{}/{name}", self.ros2.namespace.trim_end_matches('/'))
+        fri_ros_msgs::names::in_namespace(&self.ros2.namespace, name)
     }
 }
 
-fn invalid(key: &str, reason: String) -> BridgeConfigError {
-    BridgeConfigError::Invalid {
+fn invalid(key: &str, reason: String) -> ConfigError {
+    ConfigError::Invalid {
         key: key.to_owned(),
         reason,
     }
@@ -268,42 +233,15 @@ fn joint_states_every(hz: u32, cycle_s: f64) -> Result<u32, BridgeConfigError> {
     Ok(rounded as u32)
 }
 
-fn is_name_segment(s: &str) -> bool {
-    let mut chars = s.chars();
-    matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
-        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
-        && !s.contains("__")
-}
-
 fn validate_namespace(ns: &str) -> Result<(), BridgeConfigError> {
-    let key = "ros2.namespace";
-    if ns.len() > MAX_NAMESPACE_LEN {
-        return Err(invalid(
-            key,
-            format!("{} characters, at most {MAX_NAMESPACE_LEN}", ns.len()),
-        ));
-    }
-    if ns == "/" {
-        return Ok(());
-    }
-    let Some(rest) = ns.strip_prefix('/') else {
-        return Err(invalid(key, format!("`{ns}` must start with `/`")));
-    };
-    if rest.split('/').all(is_name_segment) {
-        Ok(())
-    } else {
-        Err(invalid(
-            key,
-            format!(
-                "`{ns}`: segments are letters, digits and single `_`, not starting with a digit, \
-                 separated by single `/`, no trailing `/`"
-            ),
-        ))
-    }
+    fri_ros_msgs::names::check_namespace(ns).map_err(|reason| invalid("ros2.namespace", reason))
 }
 
 fn validate_frame(key: &str, frame: &str) -> Result<(), BridgeConfigError> {
-    if frame.is_empty() || frame.len() > MAX_JOINT_NAME_LEN || !is_name_segment(frame) {
+    if frame.is_empty()
+        || frame.len() > MAX_JOINT_NAME_LEN
+        || !fri_ros_msgs::names::is_name_segment(frame)
+    {
         return Err(invalid(
             key,
             format!(

@@ -5,7 +5,7 @@ use std::sync::Mutex;
 
 use fri_ros_msgs::diagnostic_msgs::DiagnosticArray;
 use fri_ros_msgs::fri_msgs::Collision;
-use fri_ros_msgs::geometry_msgs::{Inertia, InertiaStamped};
+use fri_ros_msgs::geometry_msgs::{Inertia, InertiaStamped, WrenchStamped};
 use fri_ros_msgs::sensor_msgs::JointState;
 use fri_ros_msgs::std_msgs;
 use fri_ros_msgs::{MessageType, RosMessage};
@@ -98,6 +98,8 @@ pub struct Publishers {
     pub payload_estimate: Out<InertiaStamped>,
     /// `<ns>/collision`.
     pub collision: Out<Collision>,
+    /// `<ns>/contact_wrench`: the estimated wrench of a contact isolated on the last link.
+    pub contact_wrench: Out<WrenchStamped>,
     /// `<ns>/diagnostics`.
     pub diagnostics_ns: Out<DiagnosticArray>,
     /// `/diagnostics`.
@@ -178,6 +180,7 @@ impl Ros {
                 stream_qos(),
             )?,
             collision: out::<Collision>(&mut node, ns, "collision", stream_qos())?,
+            contact_wrench: out::<WrenchStamped>(&mut node, ns, "contact_wrench", stream_qos())?,
             diagnostics_ns: out::<DiagnosticArray>(&mut node, ns, "diagnostics", stream_qos())?,
             diagnostics: out::<DiagnosticArray>(&mut node, "/", "diagnostics", stream_qos())?,
             robot_description: out::<std_msgs::String>(

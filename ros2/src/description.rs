@@ -3,24 +3,9 @@
 
 use std::path::Path;
 
-/// Name of the frame the built-in description adds for DH frame 7.
-pub const DH_FRAME_7: &str = "lwr_dh_frame_7";
+pub use fri_service::ros_messages::DH_FRAME_7;
 /// Largest URDF file accepted, bytes.
 pub const MAX_URDF_BYTES: u64 = 4 << 20;
-
-/// The project's model (`dynamics/robots/lwr4.urdf`).
-const LWR4_URDF: &str = include_str!("../../dynamics/robots/lwr4.urdf");
-/// Pose of DH frame 7 in URDF link 7 (tools/gen_lwr4_urdf.py, `DH_IN_URDF[6]`: no rotation,
-/// z −0.078 m).
-const DH_FRAME_7_JOINT: &str = r#"  <!-- Added by fri-ros2: frame 7 of the paper's DH table, in which the payload's centre of
-       mass is given (tools/gen_lwr4_urdf.py, DH_IN_URDF). -->
-  <joint name="lwr_dh_frame_7_joint" type="fixed">
-    <parent link="lwr_link_7"/>
-    <child link="lwr_dh_frame_7"/>
-    <origin xyz="0 0 -0.078" rpy="0 0 0"/>
-  </joint>
-  <link name="lwr_dh_frame_7"/>
-"#;
 
 /// Errors reading a robot description.
 #[derive(Debug, thiserror::Error)]
@@ -58,15 +43,7 @@ pub struct RobotDescription {
 impl RobotDescription {
     /// The built-in LWR 4+ with [`DH_FRAME_7`].
     pub fn builtin() -> Result<Self, DescriptionError> {
-        let end = LWR4_URDF
-            .rfind("</robot>")
-            .ok_or_else(|| DescriptionError::Parse("no </robot> in the built-in model".into()))?;
-        let urdf = format!(
-            "{}{DH_FRAME_7_JOINT}{}",
-            &LWR4_URDF[..end],
-            &LWR4_URDF[end..]
-        );
-        Self::from_urdf(urdf)
+        Self::from_urdf(fri_service::ros_messages::robot_description())
     }
 
     /// A URDF file (at most [`MAX_URDF_BYTES`]).
@@ -118,6 +95,7 @@ mod tests {
         let d = RobotDescription::builtin().unwrap();
         let expected: Vec<String> = (1..=7).map(|i| format!("lwr_joint_{i}")).collect();
         assert_eq!(d.revolute_joints(), expected);
+        assert_eq!(expected, fri_service::ros_messages::JOINT_NAMES);
         let robot = urdf_rs::read_from_string(&d.urdf).unwrap();
         let j = robot
             .joints

@@ -6,7 +6,6 @@
 
 pub mod bridge;
 pub mod config;
-pub mod convert;
 pub mod dds;
 pub mod description;
 pub mod diagnostics;

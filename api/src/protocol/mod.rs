@@ -122,7 +122,8 @@ pub enum Command {
     Stop,
     /// Resume after a stop or a collision reaction.
     Resume,
-    /// Record to a new CSV file in the recording directory (`state.record_dir`).
+    /// Record to a new file (CSV, or MCAP with `kind: mcap`) in the recording directory
+    /// (`state.record_dir`).
     Record {
         /// File name in the recording directory: 1 to 255 characters of `A-Z a-z 0-9 . _ -`,
         /// not starting with `.` or `-`, no `/`; an existing name is refused. The reply's
@@ -130,7 +131,7 @@ pub enum Command {
         path: String,
         /// What to record.
         kind: RecordKind,
-        /// Recording length for `log`, s; number of samples for `samples` is `count`.
+        /// Recording length for `log` and `mcap`, s; number of samples for `samples` is `count`.
         #[serde(default)]
         duration_s: Option<f64>,
         /// Number of static samples for `samples` (each taken at the current pose).
@@ -240,6 +241,9 @@ pub enum RecordKind {
     /// The stored tare's static samples (unloaded), in the static-sample CSV format, for
     /// `fri-ctl offline estimate --tare` and `offline calibrate`.
     Tare,
+    /// Every cycle and the events as ROS 2 messages in an MCAP file (`ros2` profile): the
+    /// topics of the ROS 2 bridge, stamped with the controller's time (docs/ros2.md).
+    Mcap,
 }
 
 /// Error codes of the protocol (stable strings; scripts match on them).

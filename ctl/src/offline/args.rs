@@ -148,7 +148,8 @@ pub struct CalibrateArgs {
 #[derive(Debug, Clone, Args)]
 pub struct MotionArgs {
     /// Loaded trajectory log, CSV with header t (or time_s, as `record --kind log` writes),
-    /// q1..qn, tau1..taun (s, rad, Nm); extra columns ignored; lost cycles cut it into pieces.
+    /// q1..qn, tau1..taun (s, rad, Nm), extra columns ignored; or an MCAP file (`record --kind
+    /// mcap`, a ROS 2 bag): /joint_states stamps, position, effort. Lost cycles cut it into pieces.
     /// Repeat for several trajectories (e.g. the paper's q_A, q_B, q_C).
     #[arg(long, required = true)]
     pub log: Vec<PathBuf>,

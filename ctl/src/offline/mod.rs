@@ -8,6 +8,7 @@
 
 mod args;
 mod commands;
+mod mcap_log;
 mod motion_cmd;
 mod report;
 pub(crate) mod robot;

@@ -15,15 +15,20 @@ use super::args::MotionArgs;
 use super::commands::read_samples;
 use super::robot::with_robot;
 
-/// Reads a trajectory log; every position and torque must be plausible for `model`.
+/// Reads a trajectory log (CSV, or MCAP: `/joint_states`); every position and torque must be
+/// plausible for `model`.
 fn read_log<const N: usize>(
     path: &std::path::Path,
     model: &Model<N>,
 ) -> anyhow::Result<Trajectory<N>> {
-    let f = File::open(path)
-        .with_context(|| format!("cannot open trajectory log {}", path.display()))?;
     let context = || format!("reading {}", path.display());
-    let trajectory = read_log_csv::<N, _>(BufReader::new(f)).with_context(context)?;
+    let trajectory = if super::mcap_log::is_mcap(path)? {
+        super::mcap_log::read::<N>(path).with_context(context)?
+    } else {
+        let f = File::open(path)
+            .with_context(|| format!("cannot open trajectory log {}", path.display()))?;
+        read_log_csv::<N, _>(BufReader::new(f)).with_context(context)?
+    };
     Ranges::from_limits(model.limits())
         .check_trajectory(&trajectory)
         .with_context(context)?;

@@ -1,4 +1,5 @@
-//! `fri-ctl record`: static samples or a per-cycle log to a new CSV file of the service.
+//! `fri-ctl record`: static samples or a per-cycle log to a new CSV file of the service, or the
+//! per-cycle state and events to a new MCAP file.
 
 use std::io::{self, Write};
 
@@ -12,8 +13,8 @@ use super::runner::Operation;
 
 /// Long help of `record`.
 pub(super) const HELP: &str = "\
-Record to a new CSV file in the service's recording directory (`state.record_dir`) and print \
-its full path. The arm does not move.
+Record to a new CSV or MCAP file in the service's recording directory (`state.record_dir`) and \
+print its full path. The arm does not move.
 
 `--kind log` (default) writes every cycle for `--duration` seconds (0.001…3600, default 1): \
 cycle, time (s), flags, then q (rad), q̇ (rad/s), τ_J, gravity, τ_ext and residual (Nm) per \
@@ -21,6 +22,16 @@ joint. `--kind samples` takes `--count` averaged static samples at the current p
 (1…1000, default 1) in the static-sample format q1..q7 (rad), tau1..tau7, g1..g7 (Nm) that \
 `fri-ctl offline estimate` reads. `--kind tare` writes the stored tare's samples in the same \
 format, for `fri-ctl offline estimate --tare` and `offline calibrate`.
+
+`--kind mcap` writes every cycle for `--duration` seconds as ROS 2 messages in an MCAP file \
+(ros2 profile, zstd chunks, indexed): /joint_states (q rad, q̇ rad/s, τ_J Nm), \
+/lwr/external_torque (residual) and /lwr/controller_gravity (Nm, as effort), /lwr/payload \
+(applied payload at the start and on change), /lwr/collision (onsets) and /robot_description, \
+stamped with the controller's time (s since the service's first measurement). It opens in \
+Foxglove and reads with `ros2 bag` and the `mcap` libraries; `fri-ctl offline estimate-motion \
+--log` reads it too.
+
+Cycles the recorder could not keep up with are reported as lost: the log has gaps there.
 
 The name is a file name, not a path: 1 to 255 characters of A-Z a-z 0-9 . _ -, not starting \
 with `.` or `-`; an existing file is never overwritten.";
@@ -34,6 +45,8 @@ pub enum RecordArg {
     Log,
     /// The stored tare's samples (static-sample CSV; the arm does not move).
     Tare,
+    /// Every cycle and the events as ROS 2 messages (MCAP, ros2 profile).
+    Mcap,
 }
 
 /// `fri-ctl record`.
@@ -44,7 +57,7 @@ pub struct RecordArgs {
     /// What to record.
     #[arg(long, value_enum, default_value = "log")]
     pub kind: RecordArg,
-    /// Log length, s: 0.001…3600 (with `--kind log`; default 1).
+    /// Log length, s: 0.001…3600 (with `--kind log` or `mcap`; default 1).
     #[arg(long, value_name = "SECONDS")]
     pub duration: Option<f64>,
     /// Number of static samples: 1…1000 (with `--kind samples`; default 1).
@@ -65,6 +78,7 @@ impl Operation for RecordArgs {
                 RecordArg::Samples => RecordKind::Samples,
                 RecordArg::Log => RecordKind::Log,
                 RecordArg::Tare => RecordKind::Tare,
+                RecordArg::Mcap => RecordKind::Mcap,
             },
             duration_s: self.duration,
             count: self.count,
@@ -81,11 +95,16 @@ impl Operation for RecordArgs {
 
     fn print(&self, r: &RecordResult, out: &mut dyn Write) -> io::Result<()> {
         let what = match self.kind {
-            RecordArg::Samples => "static-sample",
-            RecordArg::Log => "per-cycle",
-            RecordArg::Tare => "tare static-sample",
+            RecordArg::Samples => "static-sample CSV",
+            RecordArg::Log => "per-cycle CSV",
+            RecordArg::Tare => "tare static-sample CSV",
+            RecordArg::Mcap => "per-cycle ROS 2 MCAP",
         };
-        writeln!(out, "recorded {} rows to {} ({what} CSV)", r.rows, r.path)?;
+        let rows = match self.kind {
+            RecordArg::Mcap => "cycles",
+            _ => "rows",
+        };
+        writeln!(out, "recorded {} {rows} to {} ({what})", r.rows, r.path)?;
         match r.lost {
             Some(n) if n > 0 => writeln!(
                 out,

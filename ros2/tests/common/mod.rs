@@ -8,11 +8,16 @@ use std::sync::Mutex;
 use std::time::Duration;
 
 use fri_api::client::Client;
+use fri_ros_msgs::MessageType;
 use fri_ros2::BridgeConfig;
 use fri_ros2::config::Ros2Config;
 use fri_service::config::Config;
 use fri_service::testkit::{InProcess, local_config};
 use mock_robot::{MockRobotHandle, ServerConfig, SimulationConfig, TimingMode};
+use ros2_client::dds::rustdds::DomainParticipantBuilder;
+use ros2_client::{
+    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, QosProfile, Subscription,
+};
 use tokio::sync::oneshot;
 
 /// The workspace root.
@@ -25,9 +30,9 @@ pub fn workspace() -> PathBuf {
 
 static VENV: Mutex<()> = Mutex::new(());
 
-/// The Python of the peers' virtual environment (`target/python-peers`), created with
-/// `tools/python_peers.sh` when it is missing (a fresh checkout), so `cargo test` needs only
-/// `python3` on the machine.
+/// The Python of the peers' virtual environment (`target/python-peers`), created (or completed)
+/// with `tools/python_peers.sh` when it is missing or lacks a peer package (a fresh checkout, an
+/// older list), so `cargo test` needs only `python3` on the machine.
 pub fn peers_python() -> PathBuf {
     let _one_at_a_time = VENV.lock().unwrap_or_else(|e| e.into_inner());
     let root = workspace();
@@ -35,7 +40,7 @@ pub fn peers_python() -> PathBuf {
     let python = venv.join("bin").join("python");
     let ready = python.exists()
         && Command::new(&python)
-            .args(["-c", "import cyclonedds"])
+            .args(["-c", "import cyclonedds, mcap, mcap_ros2.decoder"])
             .status()
             .is_ok_and(|s| s.success());
     if !ready {
@@ -142,4 +147,65 @@ pub async fn wait_connected(service: &InProcess) -> Client {
         tokio::time::sleep(Duration::from_millis(10)).await;
     }
     panic!("the service never saw the controller");
+}
+
+/// A ros2-client node of a DDS participant of its own on loopback (the test's ROS 2 side).
+pub struct TestNode {
+    /// The node.
+    pub node: Node,
+    _context: Context,
+}
+
+impl TestNode {
+    /// A node `/test/<name>` in `domain`, restricted to 127.0.0.1.
+    pub fn new(domain: u16, name: &str) -> Self {
+        let participant = DomainParticipantBuilder::new(domain)
+            .with_only_networks([std::net::IpAddr::from([127, 0, 0, 1])])
+            .build()
+            .unwrap();
+        let context = Context::from_domain_participant(participant).unwrap();
+        let node = context
+            .new_node(NodeName::new("/test", name).unwrap(), NodeOptions::new())
+            .unwrap();
+        Self {
+            node,
+            _context: context,
+        }
+    }
+
+    /// A subscription to `namespace`/`name` of type `t` with `qos`.
+    pub fn subscribe<M: 'static>(
+        &mut self,
+        namespace: &str,
+        name: &str,
+        t: &MessageType,
+        qos: QosProfile,
+    ) -> Subscription<M> {
+        let topic = self
+            .node
+            .create_topic(
+                &Name::new(namespace, name).unwrap(),
+                MessageTypeName::new(t.package, t.name),
+                &qos,
+            )
+            .unwrap();
+        self.node.create_subscription::<M>(&topic, None).unwrap()
+    }
+}
+
+/// The next message on `sub` for which `pred` holds (waits at most 30 s).
+pub async fn next_where<M: 'static + serde::de::DeserializeOwned>(
+    sub: &Subscription<M>,
+    what: &str,
+    pred: impl Fn(&M) -> bool,
+) -> M {
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(30);
+    loop {
+        assert!(tokio::time::Instant::now() < deadline, "no {what}");
+        match sub.take().unwrap() {
+            Some((m, _)) if pred(&m) => return m,
+            Some(_) => {}
+            None => tokio::time::sleep(Duration::from_millis(5)).await,
+        }
+    }
 }

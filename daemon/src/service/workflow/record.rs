@@ -1,4 +1,5 @@
-//! `record`: static samples or a per-cycle log, as CSV in a new file of the recording directory.
+//! `record`: static samples or a per-cycle log, as CSV in a new file of the recording directory,
+//! or the per-cycle state and the events as ROS 2 messages in an MCAP file.
 
 use std::time::Duration;
 
@@ -100,14 +101,22 @@ impl ServiceCore {
                     lost: None,
                 })
             }
+            RecordKind::Mcap => {
+                let d = log_duration(duration_s)?;
+                let namespace = ros_namespace(&self.config)?;
+                let (file, _) = dir.create(path).map_err(refuse)?;
+                let (rows, lost) = self
+                    .record_mcap(file, d, namespace)
+                    .await
+                    .map_err(|e| err(ErrorCode::Failed, format!("cannot write {shown}: {e}")))?;
+                Ok(RecordResult {
+                    rows,
+                    path: shown,
+                    lost: Some(lost),
+                })
+            }
             RecordKind::Log => {
-                let d = duration_s.unwrap_or(1.0);
-                if !(d.is_finite() && d > 0.0 && d <= 3600.0) {
-                    return Err(err(
-                        ErrorCode::InvalidArguments,
-                        "duration_s must be in (0, 3600]",
-                    ));
-                }
+                let d = log_duration(duration_s)?;
                 let mut updates = self.shared.subscribe();
                 let (file, _) = dir.create(path).map_err(refuse)?;
                 let mut w = std::io::BufWriter::new(file);
@@ -158,5 +167,143 @@ impl ServiceCore {
                 })
             }
         }
+    }
+}
+
+/// The length of a `log` or `mcap` recording, s (default 1).
+fn log_duration(duration_s: Option<f64>) -> Result<f64, OperatorError> {
+    let d = duration_s.unwrap_or(1.0);
+    if d.is_finite() && d > 0.0 && d <= 3600.0 {
+        Ok(d)
+    } else {
+        Err(err(
+            ErrorCode::InvalidArguments,
+            "duration_s must be in (0, 3600]",
+        ))
+    }
+}
+
+/// The namespace of the ROS 2 topics: `ros2.namespace` of the configuration file (the bridge's
+/// table, checked by the same rule), else `/lwr`.
+fn ros_namespace(config: &crate::config::Config) -> Result<String, OperatorError> {
+    let refuse = |reason: String| {
+        err(
+            ErrorCode::Failed,
+            format!("config key `ros2.namespace`: {reason}"),
+        )
+    };
+    match config.ros2.as_ref().and_then(|t| t.get("namespace")) {
+        None => Ok(crate::ros_messages::DEFAULT_NAMESPACE.to_owned()),
+        Some(toml::Value::String(ns)) => fri_ros_msgs::names::check_namespace(ns)
+            .map(|()| ns.clone())
+            .map_err(refuse),
+        Some(other) => Err(refuse(format!("{other} is not a string"))),
+    }
+}
+
+/// Items queued between the stream and the MCAP writer thread (4 s at 1 kHz).
+const MCAP_QUEUE: usize = 4096;
+
+impl ServiceCore {
+    /// Records `duration_s` s of controller time into `file` as MCAP: states, collision onsets,
+    /// the applied payload at the start and on each change, contact wrenches. The writer (CDR encoding, zstd)
+    /// runs on a blocking thread; a full queue or a lagging stream counts the cycles as lost.
+    /// Returns the states written and the cycles lost.
+    async fn record_mcap(
+        &self,
+        file: std::fs::File,
+        duration_s: f64,
+        namespace: String,
+    ) -> Result<(usize, u64), String> {
+        use crate::mcap_recording::{Item, McapRecording, McapSettings};
+        use crate::service::cycle::CycleEvent;
+        use std::sync::mpsc::{TrySendError, sync_channel};
+
+        let settings = McapSettings {
+            namespace,
+            cycle_s: self.config.fri.cycle_s,
+        };
+        let (tx, rx) = sync_channel::<Item>(MCAP_QUEUE);
+        let writer = tokio::task::spawn_blocking(move || {
+            let mut rec = McapRecording::create(std::io::BufWriter::new(file), settings)?;
+            while let Ok(item) = rx.recv() {
+                rec.item(&item)?;
+            }
+            let (written, out) = rec.finish()?;
+            out.into_inner()
+                .map_err(|e| mcap::McapError::Io(e.into_error()))?
+                .sync_all()
+                .map_err(mcap::McapError::Io)?;
+            Ok::<_, crate::mcap_recording::McapRecordingError>(written)
+        });
+        let frame = crate::ros_messages::DH_FRAME_7;
+        let mut updates = self.shared.subscribe();
+        let mut t0 = None;
+        let mut lost = 0u64;
+        let mut payload: Option<Option<crate::persistence::AppliedPayload>> = None;
+        let wall = Instant::now() + Duration::from_secs_f64(duration_s * 2.0 + 10.0);
+        let send = |item: Item, lost: &mut u64| match tx.try_send(item) {
+            Ok(()) => true,
+            Err(TrySendError::Full(Item::State(_))) => {
+                *lost += 1;
+                true
+            }
+            // An event is never dropped for a full queue: wait for the writer.
+            Err(TrySendError::Full(item)) => tx.send(item).is_ok(),
+            Err(TrySendError::Disconnected(_)) => false,
+        };
+        loop {
+            let u = tokio::select! {
+                u = updates.recv() => u,
+                _ = tokio::time::sleep_until(wall) => break,
+            };
+            let item = match u {
+                Ok(Update::Snapshot(s)) => {
+                    let start = *t0.get_or_insert(s.robot.time_s);
+                    if s.robot.time_s - start > duration_s {
+                        break;
+                    }
+                    // The applied payload at the start and whenever it changed, stamped with
+                    // the first cycle that shows it.
+                    let now = self.persistent(|p| p.payload);
+                    if payload != Some(now) {
+                        payload = Some(now);
+                        let applied = now.as_ref().map(super::status::applied);
+                        let m = crate::ros_messages::status_payload(
+                            applied.as_ref(),
+                            s.robot.time_s,
+                            frame,
+                        );
+                        if !send(Item::Payload(m), &mut lost) {
+                            break;
+                        }
+                    }
+                    Item::State(s.robot)
+                }
+                Ok(Update::Event(CycleEvent::Collision(c))) if t0.is_some() => {
+                    if let Some(w) = crate::ros_messages::contact_wrench(&c)
+                        && !send(Item::ContactWrench(w), &mut lost)
+                    {
+                        break;
+                    }
+                    Item::Collision(c)
+                }
+                Ok(Update::Event(_)) => continue,
+                Err(RecvError::Lagged(n)) => {
+                    lost += n;
+                    continue;
+                }
+                Err(RecvError::Closed) => break,
+            };
+            if !send(item, &mut lost) {
+                break;
+            }
+        }
+        drop(tx);
+        let written = writer
+            .await
+            .map_err(|e| format!("the MCAP writer thread failed: {e}"))?
+            .map_err(|e| e.to_string())?;
+        Ok((written.states, lost))
     }
 }

@@ -329,12 +329,9 @@ impl<const N: usize> CollisionMonitor<N> {
             // this motion (the unknown-payload mode tolerates up to them).
             let thresholds = self.detector.config().thresholds_for(&features);
             let residual = explain(input, &observed, &thresholds);
-            let mut d = self.detector.update_for(
-                &residual,
-                &features,
-                observed.cycle,
-                observed.time_s,
-            );
+            let mut d =
+                self.detector
+                    .update_for(&residual, &features, observed.cycle, observed.time_s);
             if matches!(d, Detection::Onset(_)) {
                 self.contact = None;
             }

@@ -1,7 +1,8 @@
 //! `fri-service demo`: the paper's pick-estimate-and-move experiment against the embedded mock
 //! robot, through the real service and its operator socket.
 //!
-//! 1. Tare: the 10-pose ±7° pattern without payload (controller run 1).
+//! 1. Tare: the 10-pose centred pattern (start pose first and last, D-optimal poses within ±5°)
+//!    without payload (controller run 1).
 //! 2. Estimate: the same pattern with the paper's 3.028 kg payload at (0, 0, 0.119) m in frame 7
 //!    (controller run 2: the payload is attached while the arm is parked), applied to the observer.
 //! 3. Free motion with three contacts at 1, 8 and 17 s (controller run 3, KRL-side motion in
@@ -288,7 +289,10 @@ async fn phases(
     let mut client = Client::connect(socket).await?;
 
     // 1. Tare.
-    say(opts, "[1/4] tare: 10 poses, ±7°, no payload ...");
+    say(
+        opts,
+        "[1/4] tare: 10 poses (centred pattern, ±5°), no payload ...",
+    );
     let driver = mock_robot::spawn_new(
         sim(opts.seed, false),
         ServerConfig::loopback(fri, opts.pacing),

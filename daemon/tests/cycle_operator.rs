@@ -159,3 +159,18 @@ fn a_disarmed_monitor_reports_no_collision() {
     assert!(rig.log.is_empty(), "nothing reported: {:?}", rig.log);
     assert!(!rig.flags.iter().any(|f| f & flags::COLLISION != 0));
 }
+
+/// Report only: one contact is one collision event (the detector keeps the contact until it is
+/// released), and the arm is not held.
+#[test]
+fn a_reported_contact_is_one_event_and_nothing_is_held() {
+    let mut config = service_config();
+    config.observer.armed = true;
+    config.reaction.policy = fri_service::config::ReactionMode::Report;
+    let (mut rig, target) = move_into_a_push_with(&config);
+    rig.finish_move(target);
+    assert!(rig.sim.time_s() > 1.5, "the push came during the move");
+    assert_eq!(rig.collisions(), 1, "{:?}", rig.log);
+    assert!(rig.stops().is_empty(), "{:?}", rig.stops());
+    assert!(!rig.has(flags::STOPPED));
+}

@@ -187,6 +187,13 @@ impl<const N: usize> CollisionMonitor<N> {
         self.detector.reset();
     }
 
+    /// The service does not hold for this onset (report only): the supervisor is ready for the
+    /// next onset, while the detector keeps the running contact until it is released, so one
+    /// contact is reported once (not again on every cycle it lasts).
+    pub fn pass_reaction(&mut self) {
+        self.supervisor.release();
+    }
+
     /// Forgets the observer's state and the detector's latch; the next sample starts a new
     /// warm-up. For a controller restart or a gap that cannot be bridged: integrating across
     /// it would turn the missing samples into a residual step.

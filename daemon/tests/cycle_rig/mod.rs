@@ -348,11 +348,16 @@ pub const SHORT_MOVE: [f64; 7] = [0.08, -0.05, 0.0, 0.06, 0.0, -0.05, 0.08];
 
 /// A long move with a push on link 4 at 1.2 s (mid-move); returns the rig after it.
 pub fn move_into_a_push(armed: bool) -> (Rig, [f64; 7]) {
-    let mut sim = sim_config(23);
-    sim.contacts = vec![push_on_link_4(1.2)];
     let mut config = service_config();
     config.observer.armed = armed;
-    let mut rig = Rig::new(sim, &config);
+    move_into_a_push_with(&config)
+}
+
+/// [`move_into_a_push`] with the service configured by `config`.
+pub fn move_into_a_push_with(config: &Config) -> (Rig, [f64; 7]) {
+    let mut sim = sim_config(23);
+    sim.contacts = vec![push_on_link_4(1.2)];
+    let mut rig = Rig::new(sim, config);
     rig.run(WARM_UP);
     let target = rig.target(LONG_MOVE);
     rig.start_move(target);

@@ -138,8 +138,9 @@ impl CycleProcessor {
                 };
                 if matches!(reason, StopReason::Collision { .. }) && !self.settings.react {
                     // Report only: nothing is held, so the supervisor must not wait for a
-                    // release that never comes.
-                    self.monitor.release_reaction();
+                    // release that never comes; the detector keeps the contact until it ends
+                    // (re-arming it here reported one contact on every cycle it lasted).
+                    self.monitor.pass_reaction();
                     return;
                 }
                 self.reaction_hold = true;

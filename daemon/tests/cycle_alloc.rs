@@ -23,6 +23,16 @@ fn service_cycle_is_allocation_free() {
         assert!(kit.cycle());
     }
     kit.drain();
+    // An applied payload reaches the loop as a point mass (M changes): the first counted cycle
+    // installs it.
+    let applied = fri_api::results::AppliedPayload {
+        mass: 3.0,
+        com: [0.0, 0.0, 0.12],
+        frame: "7".into(),
+    };
+    assert!(kit.send(CycleRequest::SetPayload(Some(
+        fri_service::service::core::compensation(&applied)
+    ))));
     let mut ok = 0;
     let n = alloc_counter::count_allocations(|| {
         for _ in 0..2000 {

@@ -551,12 +551,17 @@ async fn phases(
         .unwrap_or_default();
     let model = dynamics::lwr4();
     // Panel (c) and the compensated detections: the service's calibrated monitor (scheduled
-    // thresholds) on the recorded log.
+    // thresholds, the applied estimate as the service compensates it) on the recorded log.
+    let applied = fri_api::results::AppliedPayload {
+        mass: estimate.mass,
+        com: estimate.com,
+        frame: "7".into(),
+    };
     let (compensated, scheduled, on_c) = scheduled_residuals(
         &model,
         config,
         &rows,
-        PayloadCompensation::gravity_from_com(estimate.mass, Vector3::from(estimate.com)),
+        fri_service::service::core::compensation(&applied),
         cycle_s,
         &schedule,
         t0,

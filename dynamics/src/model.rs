@@ -170,11 +170,20 @@ impl<const N: usize> Model<N> {
     /// link: the last link's parameters become the sum (eqs. 16-19 and 17).
     pub fn with_payload(&self, payload: &InertialParameters) -> Model<N> {
         let mut model = self.clone();
-        if let Some(last) = model.links.last_mut() {
+        model.load_payload(self, payload);
+        model
+    }
+
+    /// Makes this model `unloaded`'s links with `payload` added to the last one, in place and
+    /// without allocating (the real-time loop switches payloads this way); the joints, gravity,
+    /// flange and limits must be `unloaded`'s, which holds for a model made by
+    /// [`Model::with_payload`] or cloned from `unloaded`.
+    pub fn load_payload(&mut self, unloaded: &Model<N>, payload: &InertialParameters) {
+        self.links = unloaded.links;
+        if let Some(last) = self.links.last_mut() {
             *last = last.plus(payload);
         }
-        model.joint_frames = JointFrames::new(&model.joints, &model.links);
-        model
+        self.joint_frames = JointFrames::new(&self.joints, &self.links);
     }
 
     /// The same kinematics with other link parameters (not checked for physical consistency, so

@@ -106,7 +106,11 @@ struct Terms<const N: usize> {
 pub struct MomentumObserver<const N: usize> {
     config: ObserverConfig<N>,
     unloaded: Model<N>,
-    inertia_model: Option<Model<N>>,
+    /// The unloaded model carrying the payload's full inertia; built at creation and updated in
+    /// place, so that a payload change in the real-time loop does not allocate.
+    loaded: Model<N>,
+    /// Whether M and Cᵀq̇ come from `loaded` ([`PayloadCompensation::Full`]).
+    inertia_loaded: bool,
     data: Data<N>,
     payload: PayloadCompensation,
     payload_gravity: SVector<f64, 4>,
@@ -139,8 +143,9 @@ impl<const N: usize> MomentumObserver<N> {
             ),
             velocity: VelocityEstimator::new(config.velocity_filter),
             config,
+            loaded: model.clone(),
             unloaded: model,
-            inertia_model: None,
+            inertia_loaded: false,
             data,
             payload: PayloadCompensation::None,
             payload_gravity: SVector::zeros(),
@@ -193,8 +198,8 @@ impl<const N: usize> MomentumObserver<N> {
         self.integrator.residual()
     }
 
-    /// Installs a new payload estimate (not real-time: builds a loaded model for
-    /// [`PayloadCompensation::Full`]). A non-physical estimate (negative mass, non-finite
+    /// Installs a new payload estimate (allocation-free: the loaded model for
+    /// [`PayloadCompensation::Full`] is updated in place). A non-physical estimate (negative mass, non-finite
     /// values) is rejected: the previous payload stays in use, the fault is logged and every
     /// following step reports [`ObserverStatus::Degraded`] until a valid estimate is set.
     /// The momentum reference is re-anchored on the next sample so that switching M does not
@@ -207,7 +212,7 @@ impl<const N: usize> MomentumObserver<N> {
         }
         self.payload_fault = None;
         let mass_matrix_changes =
-            self.inertia_model.is_some() || matches!(payload, PayloadCompensation::Full(_));
+            self.inertia_loaded || matches!(payload, PayloadCompensation::Full(_));
         let parameters = payload.gravity_parameters();
         if self.started {
             // The residual's steady state at rest is g_L − τ: it moves with the gravity term at
@@ -217,9 +222,12 @@ impl<const N: usize> MomentumObserver<N> {
             self.payload_shift = Some(pending + parameters - self.payload_gravity);
         }
         self.payload_gravity = parameters;
-        self.inertia_model = match &payload {
-            PayloadCompensation::Full(p) => Some(self.unloaded.with_payload(p)),
-            _ => None,
+        self.inertia_loaded = match &payload {
+            PayloadCompensation::Full(p) => {
+                self.loaded.load_payload(&self.unloaded, p);
+                true
+            }
+            _ => false,
         };
         if mass_matrix_changes && self.started {
             self.resync_pending = true;
@@ -324,7 +332,11 @@ impl<const N: usize> MomentumObserver<N> {
 
     fn terms(&mut self, input: &ObserverInput<N>, qd: &SVector<f64, N>) -> Result<Terms<N>, Fault> {
         let q = &input.q;
-        let dynamic_model = self.inertia_model.as_ref().unwrap_or(&self.unloaded);
+        let dynamic_model = if self.inertia_loaded {
+            &self.loaded
+        } else {
+            &self.unloaded
+        };
         let mass_matrix = crba(dynamic_model, &mut self.data, q);
         let momentum = mass_matrix * qd;
         let coriolis_t = coriolis_transpose_times_velocity(dynamic_model, &mut self.data, q, qd);

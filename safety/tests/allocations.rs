@@ -60,6 +60,37 @@ fn observer_step_does_not_allocate() {
     }
 }
 
+/// The real-time loop installs each applied payload itself: switching between none, gravity only
+/// and the full point mass (which changes M) touches no heap either.
+#[test]
+fn switching_the_payload_does_not_allocate() {
+    let samples = inputs();
+    let mut observer = MomentumObserver::new(lwr4(), ObserverConfig::new(T, 100.0)).unwrap();
+    let payloads = [
+        PayloadCompensation::Full(InertialParameters::point_mass(
+            3.0,
+            Vector3::new(0.0, 0.0, 0.12),
+        )),
+        PayloadCompensation::None,
+        PayloadCompensation::gravity_from_com(1.0, Vector3::new(0.0, 0.05, 0.1)),
+        PayloadCompensation::Full(InertialParameters::point_mass(
+            0.5,
+            Vector3::new(0.02, 0.0, 0.08),
+        )),
+    ];
+    let allocations = alloc_counter::count_allocations(|| {
+        for (k, s) in samples.iter().enumerate() {
+            if k % 40 == 20 {
+                observer
+                    .set_payload(payloads[(k / 40) % payloads.len()].clone())
+                    .unwrap();
+            }
+            std::hint::black_box(observer.step(s));
+        }
+    });
+    assert_eq!(allocations, 0);
+}
+
 #[test]
 fn monitor_step_with_collision_does_not_allocate() {
     let samples = inputs();

@@ -69,7 +69,7 @@ pub fn excitation_targets(model: &dynamics::Model<7>, start: &[f64; 7]) -> Vec<[
     for centre_deg in SWEEP_CENTRES_DEG {
         let centre = centre_deg.map(f64::to_radians);
         let reach = (limits.position_max[0] - margin - centre[0])
-            .min(centre[0] - limits.position_min[0] + margin)
+            .min(centre[0] - limits.position_min[0] - margin)
             .min(SWEEP_AMPLITUDE_RAD);
         let at = |offset: f64| {
             let mut q = centre;

@@ -73,6 +73,17 @@ pub enum Cause {
         /// The unit (empty for counts).
         unit: String,
     },
+    /// The arm did not come to rest at a sampling pose in time (no sample was taken).
+    NotSettled {
+        /// Largest joint velocity over the last settle window, rad/s (`null` in JSON before a
+        /// full window).
+        #[serde(deserialize_with = "crate::results::lenient::nan")]
+        speed_rad_s: f64,
+        /// The rest limit `estimation.settle_velocity`, rad/s.
+        limit_rad_s: f64,
+        /// How long the workflow waited, s (`estimation.settle_timeout_s`).
+        waited_s: f64,
+    },
     /// The controller did not enter command mode in time.
     CommandModeNotEntered {
         /// The controller's view in its last measurement, if any.

@@ -328,3 +328,25 @@ fn a_never_heard_controller_error_decodes() {
         Some(Cause::ControllerSilent { silent_s, fri: None }) if silent_s.is_infinite()
     ));
 }
+
+#[test]
+fn a_not_settled_error_decodes_before_a_full_window() {
+    // acquire.rs `not_settled`: before a full settle window the speed is NaN, which JSON writes as
+    // null.
+    let e = OperatorError::new(ErrorCode::Failed, "the arm did not settle within 2 s").with_cause(
+        Cause::NotSettled {
+            speed_rad_s: f64::NAN,
+            limit_rad_s: 2e-4,
+            waited_s: 2.0,
+        },
+    );
+    let line = Reply::err(Some(1), e).to_line();
+    let Reply::Err { error, .. } = serde_json::from_str(&line).unwrap() else {
+        panic!("not an error reply: {line}");
+    };
+    assert!(matches!(
+        error.cause.as_deref(),
+        Some(Cause::NotSettled { speed_rad_s, limit_rad_s, waited_s })
+            if speed_rad_s.is_nan() && *limit_rad_s == 2e-4 && *waited_s == 2.0
+    ));
+}

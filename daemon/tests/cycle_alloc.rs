@@ -25,10 +25,9 @@ fn service_cycle_is_allocation_free() {
     kit.drain();
     // An applied payload reaches the loop as a point mass (M changes): the first counted cycle
     // installs it.
-    let applied = fri_api::results::AppliedPayload {
+    let applied = fri_service::persistence::AppliedPayload {
         mass: 3.0,
         com: [0.0, 0.0, 0.12],
-        frame: "7".into(),
     };
     assert!(kit.send(CycleRequest::SetPayload(Some(
         fri_service::service::core::compensation(&applied)

@@ -4,7 +4,8 @@
 //! 1. Tare: the 10-pose centred pattern (start pose first and last, D-optimal poses within ±5°)
 //!    without payload (controller run 1).
 //! 2. Estimate: the same pattern with the paper's 3.028 kg payload at (0, 0, 0.119) m in frame 7
-//!    (controller run 2: the payload is attached while the arm is parked), applied to the observer.
+//!    (controller run 2: the payload is attached while the arm is parked), applied to the observer;
+//!    then `collision-calibrate` on a contact-free run of the free motion (`current-task`).
 //! 3. Free motion with three contacts at 1, 8 and 17 s (controller run 3, KRL-side motion in
 //!    monitor mode), recorded by the service; the residual is evaluated with the estimate
 //!    (compensated) and without it (uncompensated, the paper's problem), at the 6 Nm threshold.
@@ -393,7 +394,7 @@ async fn phases(
         .true_payload()
         .copied()
         .context("the simulation ended without its truth")?;
-    let schedule = calibrate_thresholds(opts, &mut client, robot, fri).await?;
+    let schedule = calibrate_thresholds(opts, &mut client, fri).await?;
     let f = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
     let v3 = |v: &Value| [f(&v[0]), f(&v[1]), f(&v[2])];
     let estimate = PayloadReport {
@@ -495,7 +496,7 @@ async fn phases(
                 Command::Record {
                     path: record_path,
                     kind: RecordKind::Log,
-                    duration_s: Some(FREE_MOTION_S),
+                    duration_s: Some(FREE_MOTION_S + 2.0),
                     count: None,
                 },
                 |_, _| {},
@@ -552,10 +553,9 @@ async fn phases(
     let model = dynamics::lwr4();
     // Panel (c) and the compensated detections: the service's calibrated monitor (scheduled
     // thresholds, the applied estimate as the service compensates it) on the recorded log.
-    let applied = fri_api::results::AppliedPayload {
+    let applied = fri_service::persistence::AppliedPayload {
         mass: estimate.mass,
         com: estimate.com,
-        frame: "7".into(),
     };
     let (compensated, scheduled, on_c) = scheduled_residuals(
         &model,
@@ -751,27 +751,34 @@ fn residuals(
         .collect())
 }
 
-/// Calibrates the service's thresholds on the estimate phase's robot (payload attached and
-/// applied): the built-in excitation at the demo's motion limits, budget one false alarm per
-/// 10 h, applied. Returns the schedule in force.
+/// Calibrates the service's thresholds on the task: a contact-free run of the free motion
+/// (payload attached and its estimate applied; its own noise and drift draws), recorded as
+/// `current-task`, budget one false alarm per 10 h, applied. The task, not the built-in
+/// excitation: the excitation moves joint 1 and the pose pattern, and a schedule fitted there
+/// extrapolates to the other joints' fast moves (joint 2 reached its ceiling in the free
+/// motion). Returns the schedule in force.
 async fn calibrate_thresholds(
     opts: &DemoOptions,
     client: &mut Client,
-    robot: mock_robot::Simulation,
     fri: std::net::SocketAddr,
 ) -> anyhow::Result<fri_api::results::ThresholdSchedule> {
     say(
         opts,
-        "      calibrating the collision thresholds (built-in excitation: the paper's sweeps q_A, q_B, q_C and the pose pattern) ...",
+        "      calibrating the collision thresholds on the task (a contact-free run of the free motion) ...",
     );
     let before = current_cycle(client).await?;
-    let driver = mock_robot::spawn(robot, ServerConfig::loopback(fri, opts.pacing))?;
+    let mut task = free_motion(opts.seed.wrapping_add(1));
+    task.contacts.clear();
+    // The fit needs 20 one-second blocks after the feature filters settled (0.1 s): 22 s of
+    // recording, the motion and then rest, within the run.
+    task.duration_s = Some(FREE_MOTION_S + 4.0);
+    let driver = mock_robot::spawn_new(task, ServerConfig::loopback(fri, opts.pacing))?;
     wait_fresh_state(client, before).await?;
     let reply = client
         .call(
             Command::CollisionCalibrate {
-                source: None,
-                duration_s: None,
+                source: Some(fri_api::protocol::CalibrationSource::CurrentTask),
+                duration_s: Some(FREE_MOTION_S + 2.0),
                 budget_per_hour: None,
                 apply: Some(true),
             },

@@ -95,6 +95,16 @@ fn cause_lines(cause: &Cause) -> Vec<String> {
             v.extend(fri.as_ref().map(|f| format!("last {}", controller(f))));
             v
         }
+        Cause::NotSettled {
+            speed_rad_s,
+            limit_rad_s,
+            waited_s,
+        } => vec![format!(
+            "cause: the arm did not come to rest within {} s (joint velocity {:.2e} rad/s over the settle window, limit {:.2e} rad/s): vibration, a slow controller or too tight `estimation.settle_*` limits",
+            fixed(*waited_s, 2),
+            speed_rad_s,
+            limit_rad_s
+        )],
         Cause::CommandModeNotEntered { fri } => {
             let mut v = vec![
                 "cause: the controller did not enter command mode in time (check the KRL program, quality and drives)".to_owned(),

@@ -99,6 +99,11 @@ impl SettleDetector {
         (cov / t_var).abs()
     }
 
+    /// The rest limit on every joint's window velocity, rad/s.
+    pub fn max_velocity(&self) -> f64 {
+        self.max_velocity
+    }
+
     /// The largest window speed of any joint (the settling evidence), rad/s.
     pub fn speed(&self) -> f64 {
         let n = self.recent.len() as f64;

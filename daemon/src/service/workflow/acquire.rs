@@ -14,6 +14,7 @@ use crate::service::core::{ServiceCore, err};
 use crate::service::output::CycleEvent;
 use crate::service::settle::{AveragedSample, Averager, SettleDetector};
 use crate::service::stream::Update;
+use fri_api::cause::Cause;
 use fri_api::protocol::{ErrorCode, OperatorError};
 
 /// Longest wait for a settled sample when the service does not move the arm itself (`sample`,
@@ -164,4 +165,9 @@ fn not_settled(detector: &SettleDetector, limit_s: f64) -> OperatorError {
             detector.speed()
         ),
     )
+    .with_cause(Cause::NotSettled {
+        speed_rad_s: detector.speed(),
+        limit_rad_s: detector.max_velocity(),
+        waited_s: limit_s,
+    })
 }

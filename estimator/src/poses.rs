@@ -170,6 +170,18 @@ fn score(info: &Matrix4<f64>, criterion: Criterion, nominal: &Nominal) -> f64 {
     }
 }
 
+/// Refuses a design of fewer than two poses.
+fn design_size(count: usize) -> Result<(), EstimatorError> {
+    if count < 2 {
+        return Err(EstimatorError::TooFewSamples {
+            got: count,
+            need: 2,
+            what: "poses in a design",
+        });
+    }
+    Ok(())
+}
+
 /// Chooses `count` poses inside the box center ± spread (rad, clipped to the joint limits) that
 /// optimise `criterion`: greedy selection from `candidates` low-discrepancy candidates plus the box
 /// corners of the gravity-relevant joints, then exchange passes until no swap improves.
@@ -182,13 +194,7 @@ pub fn optimize<const N: usize>(
     candidates: usize,
     nominal: &Nominal,
 ) -> Result<Vec<SVector<f64, N>>, EstimatorError> {
-    if count < 2 {
-        return Err(EstimatorError::TooFewSamples {
-            got: count,
-            need: 2,
-            what: "poses in a design",
-        });
-    }
+    design_size(count)?;
     select(
         model,
         center,
@@ -216,13 +222,7 @@ pub fn centred<const N: usize>(
     candidates: usize,
     nominal: &Nominal,
 ) -> Result<Vec<SVector<f64, N>>, EstimatorError> {
-    if count < 2 {
-        return Err(EstimatorError::TooFewSamples {
-            got: count,
-            need: 2,
-            what: "poses in a design",
-        });
-    }
+    design_size(count)?;
     let mut data = Data::new(model);
     let y0 = payload_gravity_regressor(model, &mut data, center);
     // a joint matters when a small move of it changes the regressor

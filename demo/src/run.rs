@@ -743,12 +743,36 @@ fn residuals(
     Ok(rows
         .iter()
         .map(|r| {
-            let dt = last_t.map_or(cycle_s, |t| (r.time_s - t).max(cycle_s));
-            last_t = Some(r.time_s);
-            let out = monitor.step(&ObserverInput::new(V7::from(r.q), V7::from(r.tau), dt));
-            out.observer.residual
+            replay_step(&mut monitor, r, &mut last_t, cycle_s)
+                .observer
+                .residual
         })
         .collect())
+}
+
+/// One logged cycle through a replayed monitor, as the service ran it: the gap since the
+/// previous row integrated with its true length, or — longer than the service bridges
+/// (`MAX_BRIDGED_CYCLES`, e.g. a host stall in real time) — a restart and a new warm-up, as the
+/// service resynchronised there (integrating across it would turn the gap into a residual step
+/// and a false alarm the service never raised). During a warm-up the residual is NaN, as in
+/// the service's log: it is not trusted, and the detector was not updated.
+fn replay_step(
+    monitor: &mut CollisionMonitor<7>,
+    r: &LogRow,
+    last_t: &mut Option<f64>,
+    cycle_s: f64,
+) -> safety::MonitorOutput<7> {
+    let dt = last_t.map_or(cycle_s, |t| (r.time_s - t).max(cycle_s));
+    *last_t = Some(r.time_s);
+    let cycles = (dt / cycle_s).round();
+    if cycles > f64::from(fri_service::service::cycle::MAX_BRIDGED_CYCLES) {
+        monitor.restart();
+    }
+    let mut out = monitor.step(&ObserverInput::new(V7::from(r.q), V7::from(r.tau), dt));
+    if !out.live {
+        out.observer.residual = V7::repeat(f64::NAN);
+    }
+    out
 }
 
 /// Calibrates the service's thresholds on the task: a contact-free run of the free motion
@@ -828,9 +852,7 @@ fn scheduled_residuals(
     let mut last_t: Option<f64> = None;
     let (mut residual, mut thresholds, mut onsets) = (Vec::new(), Vec::new(), Vec::new());
     for r in rows {
-        let dt = last_t.map_or(cycle_s, |t| (r.time_s - t).max(cycle_s));
-        last_t = Some(r.time_s);
-        let out = monitor.step(&ObserverInput::new(V7::from(r.q), V7::from(r.tau), dt));
+        let out = replay_step(&mut monitor, r, &mut last_t, cycle_s);
         let features = monitor
             .features()
             .copied()
@@ -883,8 +905,15 @@ fn classify(onsets: &[f64]) -> (Vec<f64>, usize) {
     (detections, false_alarms)
 }
 
+/// Every fifth point, without the ones that have no value (a replayed monitor's warm-up).
 fn decimate(times: &[f64], values: impl Iterator<Item = f64>) -> Vec<(f64, f64)> {
-    times.iter().copied().zip(values).step_by(5).collect()
+    times
+        .iter()
+        .copied()
+        .zip(values)
+        .step_by(5)
+        .filter(|(_, y)| y.is_finite())
+        .collect()
 }
 
 fn plot_fig5(
@@ -1081,4 +1110,50 @@ fn plot_fig6(
 /// Renders the report for people.
 pub fn summary(r: &DemoReport) -> Value {
     json!(r)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A moving arm logged at 1 ms with a 10 ms hole (a host stall in real time): the replay
+    /// restarts there as the service does, its warm-up is NaN, and what it trusts stays at the
+    /// model's residual (≈ 0 for torques from the same model) instead of a step.
+    #[test]
+    fn a_replay_restarts_after_a_gap_the_service_does_not_bridge() {
+        let model = dynamics::lwr4();
+        let mut data = Data::new(&model);
+        let mut row = |t: f64| {
+            let w = std::f64::consts::TAU * 0.5;
+            let q = V7::from_fn(|j, _| 0.4 * (w * t).sin() + 0.3 * j as f64 - 0.6);
+            let qd = V7::repeat(0.4 * w * (w * t).cos());
+            let qdd = V7::repeat(-0.4 * w * w * (w * t).sin());
+            let tau = dynamics::rnea(&model, &mut data, &q, &qd, &qdd);
+            LogRow {
+                time_s: t,
+                q: q.into(),
+                qd: qd.into(),
+                tau: tau.into(),
+                tau_ext: [0.0; 7],
+            }
+        };
+        let rows: Vec<LogRow> = (0..3000)
+            .filter(|k| !(1500..1510).contains(k))
+            .map(|k| row(f64::from(k) * 1e-3))
+            .collect();
+        let replayed = residuals(
+            &model,
+            &Config::default(),
+            &rows,
+            PayloadCompensation::None,
+            1e-3,
+        )
+        .unwrap();
+        let after_gap = rows.iter().position(|r| r.time_s > 1.5).unwrap();
+        assert!(replayed[after_gap].iter().all(|x| x.is_nan()));
+        let trusted: Vec<&V7> = replayed.iter().filter(|r| r[0].is_finite()).collect();
+        assert!(trusted.len() > 2000);
+        let peak = trusted.iter().map(|r| r.amax()).fold(0.0, f64::max);
+        assert!(peak < 0.5, "largest trusted residual {peak} Nm");
+    }
 }

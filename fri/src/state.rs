@@ -51,6 +51,10 @@ pub struct EndpointState {
     pub endpoint: EndpointCounters,
     /// Cycles completed by the endpoint (replies attempted).
     pub cycle: u64,
+    /// How long the endpoint thread had waited since the newest accepted measurement when it
+    /// published this state, s (0 before the first). Only this thread can tell a silent
+    /// controller from a host that kept the service's own threads from running.
+    pub silence_s: f64,
 }
 
 impl Default for EndpointState {
@@ -65,6 +69,7 @@ impl Default for EndpointState {
             statistics: SessionStatistics::default(),
             endpoint: EndpointCounters::default(),
             cycle: 0,
+            silence_s: 0.0,
         }
     }
 }

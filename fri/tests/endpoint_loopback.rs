@@ -402,3 +402,29 @@ fn a_spoofing_socket_on_another_port_is_never_answered_and_never_disturbs_the_co
     assert_eq!(s.arrival, Some(Arrival::Continued { cycles: 1 }));
     endpoint.shutdown().unwrap();
 }
+
+/// Only the endpoint thread can tell a silent controller from a stall of its reader: it
+/// publishes how long it has waited since the newest accepted measurement, zero after an
+/// answer, growing at each receive timeout while nothing arrives, and not a stranger's
+/// datagram (it is rejected) that ends the silence.
+#[test]
+fn the_published_silence_is_the_time_since_the_newest_accepted_measurement() {
+    let endpoint = Endpoint::spawn(config(), monitor_hook()).unwrap();
+    let peer = Peer::new(endpoint.local_addr());
+    assert_eq!(endpoint.latest().silence_s, 0.0, "nothing heard yet");
+    peer.send(&measurement_datagram(1, 0));
+    peer.reply();
+    let answered = wait_for(&endpoint, |s| s.statistics.replies_sent == 1);
+    assert!(answered.silence_s < 0.1, "{}", answered.silence_s);
+    let silent = wait_for(&endpoint, |s| s.silence_s > 0.15);
+    assert!(silent.silence_s > 0.15, "{}", silent.silence_s);
+    let stranger = Peer::new(endpoint.local_addr());
+    stranger.send(&measurement_datagram(2, 1));
+    stranger.expect_silence(Duration::from_millis(50));
+    assert!(endpoint.latest().silence_s > 0.15);
+    peer.send(&measurement_datagram(2, 1));
+    peer.reply();
+    let heard = wait_for(&endpoint, |s| s.statistics.replies_sent == 2);
+    assert!(heard.silence_s < 0.1, "the silence ended: {}", heard.silence_s);
+    endpoint.shutdown().unwrap();
+}

@@ -200,15 +200,30 @@ impl ServiceCore {
     /// Longest silence of the controller that still counts as connected: 100 ms, or ten
     /// controller cycles when `friOpen` runs slower than 10 ms.
     pub fn connection_timeout(&self) -> Duration {
-        Duration::from_secs_f64((10.0 * self.config.fri.cycle_s).max(0.1))
+        connection_timeout(self.config.fri.cycle_s)
     }
 
     /// The newest state, if the controller is connected (a measurement within
-    /// [`Self::connection_timeout`]).
+    /// [`Self::connection_timeout`]). A state older than that is still the newest when the
+    /// endpoint thread heard the controller meanwhile: this side lagged (a host stall), the
+    /// controller did not fall silent.
     pub(crate) fn latest(&self) -> Result<Snapshot, OperatorError> {
-        match self.shared.latest_with_age() {
-            Some((s, age)) if age <= self.connection_timeout() => Ok(s),
-            Some((_, age)) => Err(self.silent_error(age.as_secs_f64())),
+        self.connected(self.shared.latest_with_age())
+    }
+
+    /// [`Self::latest`] of one read of the newest state and its age.
+    pub(crate) fn connected(
+        &self,
+        newest: Option<(Snapshot, Duration)>,
+    ) -> Result<Snapshot, OperatorError> {
+        let timeout = self.connection_timeout();
+        match newest {
+            Some((s, age)) if age <= timeout => Ok(s),
+            Some((s, age)) => match self.fri_state.as_ref().map(|f| f()) {
+                Some(e) if e.valid && e.silence_s <= timeout.as_secs_f64() => Ok(s),
+                Some(e) if e.valid => Err(self.silent_error(e.silence_s)),
+                _ => Err(self.silent_error(age.as_secs_f64())),
+            },
             None => Err(err(
                 ErrorCode::NotReady,
                 "no measurement from the controller yet (is the KRL program running and FRI open?)",
@@ -339,4 +354,10 @@ impl ServiceCore {
             .try_lock()
             .map_err(|_| err(ErrorCode::Busy, "another workflow is running"))
     }
+}
+
+/// Longest silence of a controller cycling every `cycle_s` seconds that still counts as
+/// connected: 100 ms, or ten cycles when `friOpen` runs slower than 10 ms.
+pub(crate) fn connection_timeout(cycle_s: f64) -> Duration {
+    Duration::from_secs_f64((10.0 * cycle_s).max(0.1))
 }

@@ -197,6 +197,9 @@ impl RunningService {
         ec.session.controller_port = config.fri.controller_port;
         ec.session.resync_after = Duration::from_secs_f64(config.fri.resync_after_s);
         ec.session.max_joint_step = config.fri.max_joint_step;
+        // The endpoint publishes its view of the controller's silence at every receive
+        // timeout: four times per connection timeout, so a silence is seen when it begins.
+        ec.socket.receive_timeout = core::connection_timeout(config.fri.cycle_s) / 4;
         let endpoint =
             Arc::new(Endpoint::spawn(ec, processor).context("starting the FRI endpoint")?);
         // A weak handle: the core must not keep the loop alive after shutdown.

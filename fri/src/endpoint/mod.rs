@@ -212,6 +212,7 @@ impl<H: CycleHook> Loop<H> {
                 Ok(Some(got)) => got,
                 Ok(None) => {
                     self.responder.counters_mut().receive_timeouts += 1;
+                    self.responder.note_silence(Instant::now());
                     self.writer.publish(self.responder.state());
                     continue;
                 }
@@ -246,6 +247,7 @@ impl<H: CycleHook> Loop<H> {
             } else {
                 self.responder.refresh_state();
             }
+            self.responder.note_silence(Instant::now());
             self.writer.publish(self.responder.state());
         }
         tracing::info!("FRI endpoint stopped");

@@ -62,7 +62,7 @@ impl ServiceCore {
         let mut detector = SettleDetector::new(window, e.settle_velocity, e.settle_torque_std);
         let mut updates = self.shared.subscribe();
         let thresholds = self.persistent(|s| s.thresholds);
-        let silence = SilenceTimer::new(self.connection_timeout());
+        let silence = SilenceTimer::new(self);
         let started = Instant::now();
         let wall_limit = Duration::from_secs_f64(wait_limit_s + duration_s + 10.0);
         let mut start_t: Option<f64> = None;
@@ -146,7 +146,7 @@ impl ServiceCore {
                     Err(RecvError::Closed) => return Err(err(ErrorCode::NotReady, "the FRI loop has stopped")),
                 },
                 silent = silence.silence() => {
-                    return Err(self.silent_error(silent.as_secs_f64()));
+                    return Err(self.silent_error(silent));
                 }
                 _ = tokio::time::sleep_until(started + wall_limit) => {
                     return Err(err(ErrorCode::NotReady, "no measurements while sampling"));

@@ -268,7 +268,7 @@ impl ServiceCore {
         let comp = payload.as_ref().map(compensation).unwrap_or_default();
         let mut tracker = FeatureTracker::new(&self.model, &comp);
         let mut recorder = EnvelopeRecorder::<7>::new();
-        let silence = SilenceTimer::new(self.connection_timeout());
+        let silence = SilenceTimer::new(self);
         let cycle_s = self.config.fri.cycle_s;
         let mut previous: Option<f64> = None;
         let mut settle = TRACKER_SETTLE_SAMPLES;
@@ -354,7 +354,7 @@ impl ServiceCore {
                     }
                 }
                 silent = silence.silence() => {
-                    return Err(self.silent_error(silent.as_secs_f64()));
+                    return Err(self.silent_error(silent));
                 }
             }
         }

@@ -8,8 +8,8 @@ use tokio::sync::broadcast::error::RecvError;
 use tokio::time::Instant;
 
 use crate::service::core::{
-    ARRIVAL_TIMEOUT_S, ARRIVAL_TOLERANCE, MOVE_RETRIES, MOVE_START_TIMEOUT_S, MOVE_TIMEOUT_S,
-    ServiceCore, WORKFLOW_THRESHOLD_FACTOR, err,
+    ARRIVAL_TIMEOUT_S, ARRIVAL_TOLERANCE, FriStateSource, MOVE_RETRIES, MOVE_START_TIMEOUT_S,
+    MOVE_TIMEOUT_S, ServiceCore, WORKFLOW_THRESHOLD_FACTOR, err,
 };
 use crate::service::cycle::CycleRequest;
 use crate::service::output::{AbortReason, CycleEvent};
@@ -50,27 +50,41 @@ pub(super) fn residual_change(
     })
 }
 
-/// A timer for "no state for `timeout`" that does not fire after a pause of this process: when
-/// it wakes far later than asked (SIGSTOP, host stall), the silence was ours, not the
-/// controller's, and it starts over.
+/// A timer for "the controller is silent": it fires only when the endpoint thread itself went
+/// a whole connection timeout without an accepted measurement. A stall of this side (SIGSTOP,
+/// a host that starves the stream thread or the tokio workers) delays the state, but the
+/// controller was heard meanwhile: the timer starts over instead of blaming the controller.
 pub(super) struct SilenceTimer {
     timeout: Duration,
+    heard: Option<FriStateSource>,
 }
 
 impl SilenceTimer {
-    /// A timer for `timeout`.
-    pub(super) fn new(timeout: Duration) -> Self {
-        Self { timeout }
+    /// A timer for the connection timeout of `core`.
+    pub(super) fn new(core: &ServiceCore) -> Self {
+        Self {
+            timeout: core.connection_timeout(),
+            heard: core.fri_state.clone(),
+        }
     }
 
-    /// Waits for one silence of `timeout` that was not a pause of this process; returns it.
-    pub(super) async fn silence(&self) -> Duration {
+    /// Waits until no state arrived for a timeout and the controller was silent all along;
+    /// returns the silence, s.
+    pub(super) async fn silence(&self) -> f64 {
         loop {
             let armed = Instant::now();
             tokio::time::sleep(self.timeout).await;
             let slept = armed.elapsed();
-            if slept < self.timeout * 2 {
-                return slept;
+            match &self.heard {
+                Some(state) => {
+                    let endpoint = state();
+                    if endpoint.valid && endpoint.silence_s > self.timeout.as_secs_f64() {
+                        return endpoint.silence_s;
+                    }
+                }
+                // Without the endpoint's view, a wake far later than asked was our own pause.
+                None if slept < self.timeout * 2 => return slept.as_secs_f64(),
+                None => {}
             }
         }
     }
@@ -123,7 +137,7 @@ impl ServiceCore {
         }
         let mut updates = self.shared.subscribe();
         self.send(CycleRequest::MoveTo(target))?;
-        let silence = SilenceTimer::new(self.connection_timeout());
+        let silence = SilenceTimer::new(self);
         let mut start = Instant::now();
         let mut seen_moving = false;
         let mut ended_at = None;
@@ -207,7 +221,7 @@ impl ServiceCore {
                     Err(RecvError::Closed) => return Err(err(ErrorCode::NotReady, "the FRI loop has stopped")),
                 },
                 silent = silence.silence() => {
-                    return Err(self.silent_error(silent.as_secs_f64()));
+                    return Err(self.silent_error(silent));
                 }
                 _ = tokio::time::sleep_until(deadline) => {
                     return Err(if seen_moving {

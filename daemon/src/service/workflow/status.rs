@@ -12,7 +12,7 @@ impl ServiceCore {
     pub fn status(&self) -> StatusResult {
         // One read: `connected` and the values shown must describe the same state.
         let newest = self.shared.latest_with_age();
-        let connected = newest.is_some_and(|(_, age)| age <= self.connection_timeout());
+        let connected = self.connected(newest).is_ok();
         let snapshot = newest.map(|(s, _)| s);
         let latest = snapshot.map(|s| s.robot);
         let (payload, tare) =

@@ -27,7 +27,7 @@ impl ServiceCore {
         // The loop drains requests at the start of a cycle: the second cycle after the one seen
         // before sending has handled it.
         let handled = seen + 2;
-        let silence = SilenceTimer::new(self.connection_timeout());
+        let silence = SilenceTimer::new(self);
         loop {
             tokio::select! {
                 u = updates.recv() => match u {
@@ -38,7 +38,7 @@ impl ServiceCore {
                     }
                 },
                 silent = silence.silence() => {
-                    return Ok(Handled::Silent(self.silent_error(silent.as_secs_f64()).message));
+                    return Ok(Handled::Silent(self.silent_error(silent).message));
                 }
             }
         }

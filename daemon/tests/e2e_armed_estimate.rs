@@ -96,7 +96,8 @@ async fn host_stalled(
     let times = collision_times(events);
     assert!(
         times.iter().all(|t| *t >= onset),
-        "a collision before any contact: {times:?}"
+        "a collision before any contact: {times:?} (the workflow: {e:?}; events: {:?})",
+        events.lock().unwrap()
     );
     if times.is_empty() {
         let status = call(c, Command::Status).await.unwrap();

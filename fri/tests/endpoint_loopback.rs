@@ -425,6 +425,10 @@ fn the_published_silence_is_the_time_since_the_newest_accepted_measurement() {
     peer.send(&measurement_datagram(2, 1));
     peer.reply();
     let heard = wait_for(&endpoint, |s| s.statistics.replies_sent == 2);
-    assert!(heard.silence_s < 0.1, "the silence ended: {}", heard.silence_s);
+    assert!(
+        heard.silence_s < 0.1,
+        "the silence ended: {}",
+        heard.silence_s
+    );
     endpoint.shutdown().unwrap();
 }

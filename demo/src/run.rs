@@ -47,6 +47,8 @@ pub const PAPER_COM: [f64; 3] = [-2.8e-3, 1.1e-2, 0.1283];
 pub const CONTACTS_S: [f64; 3] = [1.0, 8.0, 17.0];
 /// Length of the free-motion segment, s.
 pub const FREE_MOTION_S: f64 = 20.0;
+/// Recording of the contact-free task the thresholds are calibrated on, s.
+const CALIBRATION_RECORD_S: f64 = FREE_MOTION_S + 6.0;
 /// Detection threshold, Nm (Fig. 6).
 pub const THRESHOLD_NM: f64 = 6.0;
 /// An onset within this time after a contact onset detects it, s.
@@ -793,16 +795,17 @@ async fn calibrate_thresholds(
     let before = current_cycle(client).await?;
     let mut task = free_motion(opts.seed.wrapping_add(1));
     task.contacts.clear();
-    // The fit needs 20 one-second blocks after the feature filters settled (0.1 s): 22 s of
-    // recording, the motion and then rest, within the run.
-    task.duration_s = Some(FREE_MOTION_S + 4.0);
+    // The fit needs 20 one-second blocks after the feature filters settled (0.1 s). A host
+    // that stalls the real-time pair loses samples (each gap the monitor cannot bridge restarts
+    // it): 26 s of recording, the motion and then rest, within the run.
+    task.duration_s = Some(CALIBRATION_RECORD_S + 2.0);
     let driver = mock_robot::spawn_new(task, ServerConfig::loopback(fri, opts.pacing))?;
     wait_fresh_state(client, before).await?;
     let reply = client
         .call(
             Command::CollisionCalibrate {
                 source: Some(fri_api::protocol::CalibrationSource::CurrentTask),
-                duration_s: Some(FREE_MOTION_S + 2.0),
+                duration_s: Some(CALIBRATION_RECORD_S),
                 budget_per_hour: None,
                 apply: Some(true),
             },

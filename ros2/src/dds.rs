@@ -112,7 +112,8 @@ pub struct Publishers {
 
 /// The servers of the bridge's ROS services.
 pub struct Servers {
-    /// `<ns>/tare`, `<ns>/estimate_payload`, `<ns>/stop`, `<ns>/resume`.
+    /// `<ns>/tare`, `<ns>/estimate_payload`, `<ns>/expect_payload`, `<ns>/stop`,
+    /// `<ns>/resume`.
     pub triggers: Vec<(
         crate::operator::Trigger,
         Server<TriggerRequest, TriggerResponse>,
@@ -201,6 +202,7 @@ impl Ros {
         for t in [
             crate::operator::Trigger::Tare,
             crate::operator::Trigger::EstimatePayload,
+            crate::operator::Trigger::ExpectPayload,
             crate::operator::Trigger::Stop,
             crate::operator::Trigger::Resume,
         ] {

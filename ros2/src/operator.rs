@@ -6,8 +6,8 @@ use std::path::PathBuf;
 use fri_api::client::Client;
 use fri_api::protocol::{CollisionAction, Command};
 use fri_api::results::{
-    CollisionResult, EstimateResult, Event, PayloadResult, ResumeResult, StatusResult, StopResult,
-    TareResult,
+    CollisionResult, EstimateResult, Event, ExpectPayloadResult, PayloadResult, ResumeResult,
+    StatusResult, StopResult, TareResult,
 };
 use serde::Serialize;
 use serde::de::DeserializeOwned;
@@ -21,6 +21,9 @@ pub enum Trigger {
     Tare,
     /// `estimate-payload` with the configured pattern, applying the estimate.
     EstimatePayload,
+    /// `expect-payload` with the service's bounds: a payload is about to be grasped, and the
+    /// armed monitor tolerates what a plausible flange load explains until one is applied.
+    ExpectPayload,
     /// `stop`.
     Stop,
     /// `resume`.
@@ -33,6 +36,7 @@ impl Trigger {
         match self {
             Self::Tare => "tare",
             Self::EstimatePayload => "estimate_payload",
+            Self::ExpectPayload => "expect_payload",
             Self::Stop => "stop",
             Self::Resume => "resume",
         }
@@ -102,6 +106,14 @@ impl Operator {
                     apply: Some(true),
                 };
                 respond(self.call::<EstimateResult>(cmd, on_event).await)
+            }
+            Trigger::ExpectPayload => {
+                let cmd = Command::ExpectPayload {
+                    max_mass: None,
+                    max_radius: None,
+                    end: None,
+                };
+                respond(self.call::<ExpectPayloadResult>(cmd, on_event).await)
             }
             Trigger::Stop => respond(self.call::<StopResult>(Command::Stop, on_event).await),
             Trigger::Resume => {

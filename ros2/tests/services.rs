@@ -77,6 +77,7 @@ async fn stop_resume_arm_and_apply_payload_reach_the_service() {
         .unwrap()
     };
     let stop = trigger(&mut node, "stop");
+    let expect = trigger(&mut node, "expect_payload");
     let resume = trigger(&mut node, "resume");
     let arm = node
         .create_client::<SetBoolRequest, SetBoolResponse>(
@@ -145,8 +146,25 @@ async fn stop_resume_arm_and_apply_payload_reach_the_service() {
     assert!(r.success, "{r:?}");
     assert!(status(&mut client).await.monitor.armed);
 
-    // apply_payload: NaN and negative masses are refused, a valid one is applied; the payload
-    // topic shows no payload but that one.
+    // Trigger on <ns>/expect_payload: the unknown-payload mode, armed, until a payload is applied.
+    tokio::time::timeout(call, expect.wait_for_service(&node))
+        .await
+        .unwrap();
+    let r = tokio::time::timeout(call, expect.async_call_service(TriggerRequest::default()))
+        .await
+        .unwrap()
+        .unwrap();
+    assert!(r.success, "{r:?}");
+    assert!(
+        r.message.contains("\"declared_by\":\"operator\""),
+        "{}",
+        r.message
+    );
+    let s = status(&mut client).await;
+    assert!(s.unknown_payload.is_some() && s.monitor.armed, "{s:?}");
+
+    // apply_payload: NaN and negative masses are refused, a valid one is applied (ending the
+    // unknown-payload mode); the payload topic shows no payload but that one.
     tokio::time::timeout(call, apply.wait_for_subscription(&node))
         .await
         .unwrap();
@@ -162,6 +180,7 @@ async fn stop_resume_arm_and_apply_payload_reach_the_service() {
     let p = s.payload.unwrap();
     assert_eq!(p.mass, 1.25);
     assert_eq!(p.com, [0.0, 0.0, 0.12]);
+    assert!(s.unknown_payload.is_none(), "applied: the mode ended");
     let mut seen = Vec::new();
     let deadline = tokio::time::Instant::now() + call;
     while !seen.contains(&1.25) {

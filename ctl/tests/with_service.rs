@@ -330,7 +330,7 @@ async fn the_daemons_results_decode_into_the_typed_results() {
     assert_eq!(st.controller, ControllerLink::Connected);
     typed::<StatusResult>(&mut c, Command::Status).await;
     let r: ResumeResult = typed(&mut c, Command::Resume).await;
-    assert!(!r.stopped);
+    assert!(!r.stopped, "{r:?}");
     // The typed call of the client decodes the same result.
     let s = c
         .call_typed::<StatusResult>(Command::Status, |_| {})

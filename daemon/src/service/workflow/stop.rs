@@ -24,9 +24,16 @@ impl ServiceCore {
             Ok(cycle) => cycle,
             Err(e) => return Ok(Handled::Silent(e.message)),
         };
-        // The loop drains requests at the start of a cycle: the second cycle after the one seen
-        // before sending has handled it.
-        let handled = seen + 2;
+        // The loop drains requests at the start of a cycle: the second cycle after the last one
+        // it completed when the request was sent has handled it. The loop can be ahead of the
+        // state delivered here (the stream thread lags on a stalled host), so count from the
+        // endpoint thread's own cycle count, read after sending: it counts the loop's cycles
+        // as the snapshots number them.
+        let completed = self
+            .fri_state
+            .as_ref()
+            .map_or(seen, |f| f().cycle.max(seen));
+        let handled = completed + 2;
         let silence = SilenceTimer::new(self);
         loop {
             tokio::select! {

@@ -197,8 +197,7 @@ impl ServiceCore {
         })
     }
 
-    /// Longest silence of the controller that still counts as connected: 100 ms, or ten
-    /// controller cycles when `friOpen` runs slower than 10 ms.
+    /// [`connection_timeout`] at this service's FRI cycle.
     pub fn connection_timeout(&self) -> Duration {
         connection_timeout(self.config.fri.cycle_s)
     }
@@ -219,10 +218,10 @@ impl ServiceCore {
         let timeout = self.connection_timeout();
         match newest {
             Some((s, age)) if age <= timeout => Ok(s),
-            Some((s, age)) => match self.fri_state.as_ref().map(|f| f()) {
-                Some(e) if e.valid && e.silence_s <= timeout.as_secs_f64() => Ok(s),
-                Some(e) if e.valid => Err(self.silent_error(e.silence_s)),
-                _ => Err(self.silent_error(age.as_secs_f64())),
+            Some((s, age)) => match endpoint_heard(self.fri_state.as_ref(), timeout) {
+                Heard::Recently => Ok(s),
+                Heard::SilentFor(silent_s) => Err(self.silent_error(silent_s)),
+                Heard::Unknown => Err(self.silent_error(age.as_secs_f64())),
             },
             None => Err(err(
                 ErrorCode::NotReady,
@@ -360,4 +359,24 @@ impl ServiceCore {
 /// connected: 100 ms, or ten cycles when `friOpen` runs slower than 10 ms.
 pub(crate) fn connection_timeout(cycle_s: f64) -> Duration {
     Duration::from_secs_f64((10.0 * cycle_s).max(0.1))
+}
+
+/// What the FRI endpoint thread says of the controller: only that thread can tell a silent
+/// controller from a stall of this side that delayed the delivered states.
+pub(crate) enum Heard {
+    /// An accepted measurement within the connection timeout.
+    Recently,
+    /// No accepted measurement for this long, s (longer than the connection timeout).
+    SilentFor(f64),
+    /// The endpoint thread publishes no valid state (not running, or no session yet).
+    Unknown,
+}
+
+/// [`Heard`] from the endpoint's published state, judged against `timeout`.
+pub(crate) fn endpoint_heard(source: Option<&FriStateSource>, timeout: Duration) -> Heard {
+    match source.map(|state| state()) {
+        Some(e) if e.valid && e.silence_s <= timeout.as_secs_f64() => Heard::Recently,
+        Some(e) if e.valid => Heard::SilentFor(e.silence_s),
+        _ => Heard::Unknown,
+    }
 }

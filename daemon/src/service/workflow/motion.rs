@@ -8,8 +8,9 @@ use tokio::sync::broadcast::error::RecvError;
 use tokio::time::Instant;
 
 use crate::service::core::{
-    ARRIVAL_TIMEOUT_S, ARRIVAL_TOLERANCE, FriStateSource, MOVE_RETRIES, MOVE_START_TIMEOUT_S,
-    MOVE_TIMEOUT_S, ServiceCore, WORKFLOW_THRESHOLD_FACTOR, err,
+    ARRIVAL_TIMEOUT_S, ARRIVAL_TOLERANCE, FriStateSource, Heard, MOVE_RETRIES,
+    MOVE_START_TIMEOUT_S, MOVE_TIMEOUT_S, ServiceCore, WORKFLOW_THRESHOLD_FACTOR, endpoint_heard,
+    err,
 };
 use crate::service::cycle::CycleRequest;
 use crate::service::output::{AbortReason, CycleEvent};
@@ -75,16 +76,14 @@ impl SilenceTimer {
             let armed = Instant::now();
             tokio::time::sleep(self.timeout).await;
             let slept = armed.elapsed();
-            match &self.heard {
-                Some(state) => {
-                    let endpoint = state();
-                    if endpoint.valid && endpoint.silence_s > self.timeout.as_secs_f64() {
-                        return endpoint.silence_s;
-                    }
-                }
+            match endpoint_heard(self.heard.as_ref(), self.timeout) {
+                Heard::SilentFor(silent_s) => return silent_s,
+                Heard::Recently => {}
                 // Without the endpoint's view, a wake far later than asked was our own pause.
-                None if slept < self.timeout * 2 => return slept.as_secs_f64(),
-                None => {}
+                Heard::Unknown if self.heard.is_none() && slept < self.timeout * 2 => {
+                    return slept.as_secs_f64();
+                }
+                Heard::Unknown => {}
             }
         }
     }

@@ -158,8 +158,9 @@ pub const MIN_GAIN: f64 = 1.0;
 ///   its pole at 3T is −½ (stable, decaying) and at T is +½ (no overshoot);
 /// - the exact form's pole e^{−KT} is 0.61 at K·T = ½: the residual still averages a few samples
 ///   (at K·T = 2 it would be 0.14 and r the raw torque difference of one sample), and its corner
-///   K = 500 rad/s at 1 ms stays below the 200 Hz velocity filter (1257 rad/s) and a sixth of
-///   the Nyquist rate π/T, so the sampled observer behaves like the continuous K/(s + K);
+///   K = 500 rad/s at 1 ms stays below a sixth of the Nyquist rate π/T, so the sampled
+///   observer behaves like the continuous K/(s + K) (the velocity filter shapes only the
+///   momentum input, outside this loop);
 /// - Euler and exact forms then differ by (K·T)²/2 ≈ 0.13 of a step, not by half of it (K·T = 1).
 ///
 /// The default 400 1/s (K·T = 0.4 at 1 ms) lies inside; faster detection comes from lower

@@ -19,10 +19,11 @@ pub enum GravitySource {
     Controller,
 }
 
-/// Default observer gain K_I \[1/s\] (collision-detection.md §10 target 3). With the 200 Hz
-/// velocity filter and debounce 1 it meets the delay targets (median ≤ 5 ms, p95 ≤ 10 ms for 50 N
-/// impulsive contacts on links 4–7) with zero false alarms in 1 h of simulated free motion at
-/// 6 Nm (BENCHMARKS.md, `collision_eval --sweep`); lower gains are slower (K = 100: 8.8 ms).
+/// Default observer gain K_I \[1/s\] (collision-detection.md §10 target 3). With the velocity
+/// filter of that time (200 Hz) and debounce 1 it met the delay targets (median ≤ 5 ms, p95
+/// ≤ 10 ms for 50 N impulsive contacts on links 4–7) with zero false alarms in 1 h of simulated
+/// free motion at 6 Nm (BENCHMARKS.md, `collision_eval --sweep`); lower gains are slower
+/// (K = 100: 8.8 ms). With calibrated thresholds and the 50 Hz filter: 2.8 ms.
 pub const DEFAULT_GAIN: f64 = 400.0;
 
 /// Configuration of the momentum observer for N joints.
@@ -52,7 +53,7 @@ pub struct ObserverConfig<const N: usize> {
 
 impl<const N: usize> ObserverConfig<N> {
     /// Defaults: gain `gain` \[1/s\] on every joint, period `sample_period_s` \[s\], exact ZOH,
-    /// first-order 200 Hz velocity filter, model gravity, no friction, dt accepted in
+    /// first-order velocity filter at [`crate::DEFAULT_VELOCITY_CUTOFF_HZ`], model gravity, no friction, dt accepted in
     /// \[0.5T, 3T\], stale after 100 identical samples.
     pub fn new(sample_period_s: f64, gain: f64) -> Self {
         Self {

@@ -52,4 +52,4 @@ pub use payload_tolerance::{
     FlangeLoadBounds, LoadSample, PayloadHypothesis, PayloadTolerance, fit_hypothesis,
 };
 pub use reaction::{ReactionPolicy, ReactionRequest, ReactionState, ReactionSupervisor, StopCause};
-pub use velocity::{VelocityEstimator, VelocityFilter};
+pub use velocity::{DEFAULT_VELOCITY_CUTOFF_HZ, VelocityEstimator, VelocityFilter};

@@ -36,10 +36,21 @@ pub enum VelocityFilter {
     },
 }
 
+/// Cut-off of the default velocity filter \[Hz\]. The velocity noise of a quantised encoder
+/// enters the residual as K·M(q)·δq̇ and sets the thresholds in motion on the shoulder and elbow
+/// joints; the filter's lag enters only as d/dt(M·q̈·delay), small for planned motion. At 50 Hz
+/// against 200 Hz, with the payload as a point mass at K = 400 (`collision_eval --calibrated`,
+/// BENCHMARKS.md): median thresholds in motion on joints 1–4 fall 1.5–2.5×, F_min on link 4 from
+/// 20 N to 8.4 N, and 50 N contacts are found sooner (2.8 instead of 4.2 ms median) because the
+/// thresholds they must cross are lower.
+pub const DEFAULT_VELOCITY_CUTOFF_HZ: f64 = 50.0;
+
 impl Default for VelocityFilter {
-    /// First order at 200 Hz: 0.90 ms delay at 1 kHz.
+    /// First order at [`DEFAULT_VELOCITY_CUTOFF_HZ`]: 3.2 ms delay at 1 kHz.
     fn default() -> Self {
-        VelocityFilter::FirstOrder { cutoff_hz: 200.0 }
+        VelocityFilter::FirstOrder {
+            cutoff_hz: DEFAULT_VELOCITY_CUTOFF_HZ,
+        }
     }
 }
 

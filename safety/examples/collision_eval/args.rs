@@ -12,6 +12,9 @@ pub struct Args {
     pub sweep: bool,
     /// Run only the evaluation at calibrated settings (`calibrated.md`).
     pub calibrated: bool,
+    /// Cut-off of the observers' first-order velocity filter [Hz]; `None` keeps
+    /// `safety::VelocityFilter::default()` (what the service runs).
+    pub velocity_cutoff_hz: Option<f64>,
 }
 
 /// Parses `std::env::args`; panics on an unknown flag or a malformed value.
@@ -23,6 +26,7 @@ pub fn parse_args() -> Args {
         seed: 2017,
         sweep: false,
         calibrated: false,
+        velocity_cutoff_hz: None,
     };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
@@ -42,6 +46,9 @@ pub fn parse_args() -> Args {
             "--hours" => args.hours = value.parse().expect("--hours"),
             "--contacts" => args.contacts = value.parse().expect("--contacts"),
             "--seed" => args.seed = value.parse().expect("--seed"),
+            "--velocity-cutoff-hz" => {
+                args.velocity_cutoff_hz = Some(value.parse().expect("--velocity-cutoff-hz"))
+            }
             other => panic!("unknown flag {other}"),
         }
     }

@@ -65,10 +65,22 @@ impl Variant {
     }
 }
 
-/// K_I = `GAIN` (the default), exact ZOH, g(q) from the controller's packet (`data.gravity`, no payload).
+/// The velocity filter of every observer in this run (`--velocity-cutoff-hz`; unset: the default).
+static VELOCITY_FILTER: std::sync::OnceLock<VelocityFilter> = std::sync::OnceLock::new();
+
+/// Sets the velocity filter of every observer built afterwards (once, before the first).
+pub fn use_velocity_filter(filter: VelocityFilter) {
+    VELOCITY_FILTER
+        .set(filter)
+        .expect("the velocity filter is chosen once, before any observer is built");
+}
+
+/// K_I = `GAIN` (the default), exact ZOH, g(q) from the controller's packet (`data.gravity`, no
+/// payload), the run's velocity filter.
 pub fn observer_config() -> ObserverConfig<7> {
     let mut config = ObserverConfig::new(T, GAIN);
     config.gravity_source = GravitySource::Controller;
+    config.velocity_filter = *VELOCITY_FILTER.get_or_init(VelocityFilter::default);
     config
 }
 

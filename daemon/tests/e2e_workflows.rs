@@ -53,6 +53,12 @@ async fn tare_then_estimate_through_the_socket_and_persist_after_restart() {
     let declared = call(&mut c, declare_payload_unknown()).await.unwrap();
     assert_eq!(declared["unknown_payload"]["samples"], 0, "{declared}");
     let mut robot = driver.join().unwrap().0;
+    // Attaching takes 2 s of robot time with the arm off line: the service's clock cannot see
+    // them, the controller's does, and the estimate must report them.
+    const ATTACH_S: f64 = 2.0;
+    for _ in 0..(ATTACH_S / robot.cycle_s()).round() as u64 {
+        robot.step_cycle(None);
+    }
     robot.set_payload_attached(true);
     let driver = mock_robot::spawn(robot, ServerConfig::loopback(h.fri, lockstep())).unwrap();
     // The resumed controller sends from a new port: the service binds it once the old one has
@@ -147,6 +153,11 @@ async fn tare_then_estimate_through_the_socket_and_persist_after_restart() {
         );
     }
     assert!(est["mass_std"].as_f64().unwrap() > 0.0);
+    let since_tare = est["uncertainty"]["since_tare_s"].as_f64().unwrap();
+    assert!(
+        (ATTACH_S..ATTACH_S + 5.0).contains(&since_tare),
+        "since_tare_s {since_tare} for a {ATTACH_S} s pause: {est}"
+    );
     let status = call(&mut c, Command::Status).await.unwrap();
     assert_eq!(status["payload"]["mass"].as_f64().unwrap(), mass);
     assert_eq!(status["monitor"]["armed"], true, "{status}");

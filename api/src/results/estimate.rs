@@ -90,6 +90,11 @@ pub struct UncertaintyReport {
     pub drift_rate_measured: Option<f64>,
     /// Measured drift increments (joints × revisits).
     pub drift_increments: usize,
+    /// Time from the tare's last sample to this estimate's first, s, on the controller's clock
+    /// (absent without a tare). The drift over it looks like a payload to poses a few degrees
+    /// apart, so it is the floor of the mass σ: grasp right after the tare.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub since_tare_s: Option<f64>,
 }
 
 /// One source's share of the uncertainty.

@@ -155,7 +155,16 @@ fn print_uncertainty(u: &UncertaintyReport, out: &mut dyn Write) -> io::Result<(
         fixed(u.drift_rate * 1e3, 2),
         fixed(u.scatter_ratio, 2),
         u.dof
-    )
+    )?;
+    match u.since_tare_s {
+        // The drift over this pause cannot be told from a payload: say how long it was.
+        Some(pause) => writeln!(
+            out,
+            "since tare     {} s from the tare's last sample to the estimate's first",
+            fixed(pause, 1)
+        ),
+        None => Ok(()),
+    }
 }
 
 #[cfg(test)]
@@ -197,6 +206,7 @@ mod tests {
                 drift_rate: 0.002_1,
                 drift_rate_measured: Some(0.002_3),
                 drift_increments: 14,
+                since_tare_s: Some(5.3),
             }),
         };
         let mut out = Vec::new();
@@ -209,6 +219,7 @@ mod tests {
         assert!(text.contains("z +119.04"), "{text}");
         assert!(text.contains("drift                   0.41"), "{text}");
         assert!(text.contains("2.30 measured over 14 increments"), "{text}");
+        assert!(text.contains("since tare     5.3 s"), "{text}");
         assert!(
             text.contains("stored tare subtracted") && text.contains("NOT applied"),
             "{text}"

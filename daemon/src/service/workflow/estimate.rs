@@ -152,7 +152,7 @@ impl ServiceCore {
             around,
             applied: apply,
             timing: Some(timing),
-            uncertainty: uncertainty.map(|u| report(&u)),
+            uncertainty: uncertainty.map(|u| report(&u.uncertainty, u.since_tare_s)),
         };
         if let Some(ipc) = &self.ipc {
             ipc.payload(&IpcPayload {
@@ -175,8 +175,9 @@ impl ServiceCore {
     }
 }
 
-/// The error model's uncertainty as the operator reads it.
-fn report(u: &Uncertainty) -> UncertaintyReport {
+/// The error model's uncertainty as the operator reads it, with the time from the tare's last
+/// sample to the estimate's first (s; `None` without a tare).
+fn report(u: &Uncertainty, since_tare_s: Option<f64>) -> UncertaintyReport {
     UncertaintyReport {
         sources: u
             .sources
@@ -198,6 +199,7 @@ fn report(u: &Uncertainty) -> UncertaintyReport {
         drift_rate: u.drift_rate,
         drift_rate_measured: u.drift_rate_measured,
         drift_increments: u.drift_increments,
+        since_tare_s,
     }
 }
 
@@ -254,19 +256,29 @@ fn tare_covers(tare: &Tare, request: &PatternRequest, revisit: bool) -> Result<(
     ))
 }
 
+/// The error model's uncertainty of an estimate and the pause its tare's drift ran over.
+pub struct TaredUncertainty {
+    /// σ by source.
+    pub uncertainty: Uncertainty,
+    /// Time from the tare's last sample to the first loaded one, s, on the controller's clock
+    /// (`None` without a tare).
+    pub since_tare_s: Option<f64>,
+}
+
 /// Runs the estimator on the loaded samples, against the stored tare when given (Δτ = τ_loaded
 /// − τ_unloaded, eq. 25 in data space) or the controller's gravity. With every sample's
 /// evidence (the service's own samples) the fit runs under the error model
 /// (`estimator::error_model`: averaging noise, tare noise, drift, offset) and returns the
-/// uncertainty by source; samples without it (a tare from an older version) get the plain fit,
-/// whose σ is the pose-to-pose scatter only.
+/// uncertainty by source and the time from the tare's last sample to the first loaded one (s,
+/// on the controller's clock; `None` without a tare); samples without it (a tare from an older
+/// version) get the plain fit, whose σ is the pose-to-pose scatter only.
 pub fn estimate(
     model: &Model<7>,
     loaded: &[StaticSample],
     tare: Option<&Tare>,
     config: &EstimationConfig,
     start: Option<Clocks>,
-) -> Result<(PayloadEstimate, Option<Uncertainty>), OperatorError> {
+) -> Result<(PayloadEstimate, Option<TaredUncertainty>), OperatorError> {
     let options = estimator::estimate::EstimateOptions {
         // Averaged samples: the velocity check is done by the settle detector.
         static_check: estimator::samples::StaticCheck {
@@ -290,9 +302,20 @@ pub fn estimate(
                 offset_std: config.untared_offset_std,
             },
         };
+        let since_tare_s = tare_samples.as_deref().map(|t| {
+            let time = |s: &StaticSample| s.evidence.map_or(0.0, |e| e.time_s);
+            let first = loaded.iter().map(time).fold(f64::INFINITY, f64::min);
+            first - t.iter().map(time).fold(f64::NEG_INFINITY, f64::max)
+        });
         let (e, u) =
             estimate_modelled(model, loaded, reference, drift, &options).map_err(failed)?;
-        return Ok((e, Some(u)));
+        return Ok((
+            e,
+            Some(TaredUncertainty {
+                uncertainty: u,
+                since_tare_s,
+            }),
+        ));
     }
     let to_est =
         |s: &StaticSample, reference: &SVector<f64, 7>| StaticSample::new(s.q, s.tau, *reference);

@@ -247,7 +247,9 @@ impl<H: CycleHook> Loop<H> {
             } else {
                 self.responder.refresh_state();
             }
-            self.responder.note_silence(Instant::now());
+            // At the receive time: no second clock read on the answer path (after an accepted
+            // measurement the silence is zero either way).
+            self.responder.note_silence(now);
             self.writer.publish(self.responder.state());
         }
         tracing::info!("FRI endpoint stopped");

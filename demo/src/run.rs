@@ -1100,7 +1100,7 @@ fn plot_fig6(
             Panel {
                 thresholds: scheduled_lines,
                 ..panel(
-                    "(c) Residual, payload compensated (eq. 48); calibrated θⱼ(t), 1 false alarm/10 h",
+                    "(c) Residual, estimated payload compensated (eq. 48 and its inertia); calibrated θⱼ(t), 1 false alarm/10 h",
                     "r [Nm]",
                     compensated,
                 )

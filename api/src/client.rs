@@ -9,7 +9,7 @@ use tokio::net::UnixStream;
 use tokio::net::unix::{OwnedReadHalf, OwnedWriteHalf};
 
 use crate::frame::{Frame, LineReader};
-use crate::protocol::{Command, OperatorError, Reply, Request, RequestId};
+use crate::protocol::{Command, OperatorError, Reply, Request, RequestId, Ros2Caller};
 use crate::results::{Event, RawEvent};
 
 /// Longest reply line the client accepts, bytes (status replies are a few kB).
@@ -100,11 +100,22 @@ impl Client {
     pub async fn call(
         &mut self,
         command: Command,
+        on_event: impl FnMut(&str, &Value),
+    ) -> Result<Result<Value, OperatorError>, ClientError> {
+        self.call_for(None, command, on_event).await
+    }
+
+    /// [`Client::call`] on behalf of the ROS 2 participant `ros2` (the bridge's requests: the
+    /// service records the participant as the request's origin).
+    pub async fn call_for(
+        &mut self,
+        ros2: Option<Ros2Caller>,
+        command: Command,
         mut on_event: impl FnMut(&str, &Value),
     ) -> Result<Result<Value, OperatorError>, ClientError> {
         let id = self.next_id;
         self.next_id += 1;
-        let mut line = Request { id, command }.to_line();
+        let mut line = Request { id, ros2, command }.to_line();
         line.push('\n');
         self.send_raw(line.as_bytes()).await?;
         loop {
@@ -134,10 +145,20 @@ impl Client {
     pub async fn call_typed<R: DeserializeOwned>(
         &mut self,
         command: Command,
+        on_event: impl FnMut(Result<Event, RawEvent>),
+    ) -> Result<Result<R, OperatorError>, ClientError> {
+        self.call_typed_for(None, command, on_event).await
+    }
+
+    /// [`Client::call_typed`] on behalf of the ROS 2 participant `ros2`.
+    pub async fn call_typed_for<R: DeserializeOwned>(
+        &mut self,
+        ros2: Option<Ros2Caller>,
+        command: Command,
         mut on_event: impl FnMut(Result<Event, RawEvent>),
     ) -> Result<Result<R, OperatorError>, ClientError> {
         let reply = self
-            .call(command, |event, data| {
+            .call_for(ros2, command, |event, data| {
                 on_event(Event::decode(event, data).map_err(|e| RawEvent {
                     event: event.to_owned(),
                     data: data.clone(),

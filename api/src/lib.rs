@@ -13,6 +13,7 @@ pub mod client;
 pub mod frame;
 pub mod fri_context;
 pub mod ipc;
+pub mod origin;
 pub mod pattern;
 pub mod protocol;
 pub mod results;

@@ -67,7 +67,10 @@ fn status_connected_and_disconnected() {
         "command_mode": true, "stopped": false, "collision": false, "observer_fault": false,
         "moving": false,
         "payload": json!({"mass": 1.5, "com": [0.0, 0.01, -0.02], "frame": "7"}),
+        "payload_origin": {"kind": "ros2", "participant": "010f2c4d.00001234.00000001.000001c1",
+                           "authenticated": true, "uid": 1000, "pid": 4242},
         "tare_samples": 6,
+        "weaker_than_configuration": ["joint 2 threshold 9.000 Nm above the configuration's 6.000 Nm"],
         "monitor": {"armed": true, "thresholds": ([6.0; 7]), "gains": ([400.0; 7]),
                     "reaction": "stop", "pause_s": 2.0, "persisted": false,
                     "set_for_payload": null, "payload_changed": false},
@@ -76,6 +79,10 @@ fn status_connected_and_disconnected() {
     });
     let s: StatusResult = round_trip(connected.clone());
     assert_eq!(s.fri.unwrap().cycles, 1234);
+    assert!(matches!(
+        s.payload_origin,
+        Some(fri_api::origin::Origin::Ros2 { uid: 1000, .. })
+    ));
     assert_eq!(s.payload.unwrap().mass, 1.5);
     // Before the first measurement and without an endpoint snapshot.
     let empty = json!({
@@ -83,7 +90,8 @@ fn status_connected_and_disconnected() {
         "cycle": null, "time_s": null, "q": null, "qd": null, "tau": null, "gravity": null,
         "tau_ext": null, "residual": null,
         "command_mode": false, "stopped": false, "collision": false, "observer_fault": false,
-        "moving": false, "payload": null, "tare_samples": null,
+        "moving": false, "payload": null, "payload_origin": null, "tare_samples": null,
+        "weaker_than_configuration": [],
         "monitor": {"armed": false, "thresholds": ([6.0; 7]), "gains": ([400.0; 7]),
                     "reaction": "stop", "pause_s": 2.0, "persisted": false,
                     "set_for_payload": null, "payload_changed": false},
@@ -106,7 +114,8 @@ fn status_connected_and_disconnected() {
     // The payload declared unknown, three static samples fitted.
     let mut grasping = connected;
     grasping["unknown_payload"] = json!({
-        "declared_by": "operator", "max_mass": 7.0, "max_radius": 0.3, "samples": 3,
+        "declared_by": "operator", "origin": {"kind": "operator", "uid": 0, "pid": 17},
+        "max_mass": 7.0, "max_radius": 0.3, "samples": 3,
         "mass": 3.03, "com": [0.0, 0.0, 0.119], "consistent": true,
     });
     let s: StatusResult = round_trip(grasping);
@@ -116,7 +125,8 @@ fn status_connected_and_disconnected() {
 #[test]
 fn expect_payload_results() {
     let declared: ExpectPayloadResult = round_trip(json!({"unknown_payload": {
-        "declared_by": "estimate-payload", "max_mass": 2.0, "max_radius": 0.25, "samples": 0,
+        "declared_by": "estimate-payload", "origin": {"kind": "configuration"},
+        "max_mass": 2.0, "max_radius": 0.25, "samples": 0,
         "mass": null, "com": null, "consistent": true,
     }}));
     assert_eq!(
@@ -252,6 +262,26 @@ fn watch_events_with_their_causes() {
         Event::Watching(fri_api::results::Watching { cycle: Some(5) })
     );
     event("watching", json!({"cycle": null}));
+    // The audit trail (daemon/src/audit.rs): who changed what.
+    let audit = event(
+        "audit",
+        json!({"time_unix_s": 1.7e9, "origin": {"kind": "operator", "uid": 1000, "pid": 42},
+               "change": {"what": "disarmed"}}),
+    );
+    assert!(matches!(
+        audit,
+        Event::Audit(AuditRecord {
+            change: Change::Disarmed,
+            ..
+        })
+    ));
+    event(
+        "audit",
+        json!({"time_unix_s": 1.7e9, "origin": {"kind": "restored"},
+               "change": {"what": "restored", "file": "monitor.json",
+                          "weaker_than_configuration": ["report-only reaction (the configuration's is `stop`)"]},
+               "suppressed_before": 3}),
+    );
     event(
         "collision",
         json!({"time_s": 12.5, "cycle": 12500u64, "link": 4, "joints": [3, 4], "residual": ([0.5; 7])}),

@@ -13,7 +13,12 @@ use serde_json::{Value, json};
 struct FakeService;
 
 impl Handler for FakeService {
-    async fn handle(&self, command: Request, events: EventSink) -> Result<Value, OperatorError> {
+    async fn handle(
+        &self,
+        command: Request,
+        _origin: fri_api::origin::Origin,
+        events: EventSink,
+    ) -> Result<Value, OperatorError> {
         match command {
             Request::Watch { .. } => {
                 while events.send("state", json!({"cycle": 1})).await {

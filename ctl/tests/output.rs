@@ -63,7 +63,12 @@ fn calibration(monitor: &Value) -> Value {
 }
 
 impl Handler for FakeService {
-    async fn handle(&self, command: Request, events: EventSink) -> Result<Value, OperatorError> {
+    async fn handle(
+        &self,
+        command: Request,
+        _origin: fri_api::origin::Origin,
+        events: EventSink,
+    ) -> Result<Value, OperatorError> {
         self.seen.lock().unwrap().push(command.clone());
         let monitor = json!({"armed": true, "thresholds": Q, "gains": Q});
         match command {

@@ -6,6 +6,7 @@
 //! What clients see of it (requests, results, events, shared-memory messages) is in `fri-api`;
 //! the crate graph and the data paths are in `docs/architecture.md`.
 
+pub mod audit;
 pub mod config;
 pub mod ipc;
 pub mod mcap_recording;

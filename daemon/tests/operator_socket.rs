@@ -21,7 +21,12 @@ struct TestHandler {
 }
 
 impl Handler for TestHandler {
-    async fn handle(&self, command: Command, events: EventSink) -> Result<Value, OperatorError> {
+    async fn handle(
+        &self,
+        command: Command,
+        _origin: fri_api::origin::Origin,
+        events: EventSink,
+    ) -> Result<Value, OperatorError> {
         let n = self.calls.fetch_add(1, Ordering::SeqCst);
         match command {
             Command::Status => Ok(json!({"calls": n})),

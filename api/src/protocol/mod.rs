@@ -163,6 +163,43 @@ impl Command {
         "record",
         "watch",
     ];
+
+    /// The command's `cmd` name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Command::Status => "status",
+            Command::Sample { .. } => "sample",
+            Command::Tare { .. } => "tare",
+            Command::EstimatePayload { .. } => "estimate-payload",
+            Command::ApplyPayload { .. } => "apply-payload",
+            Command::ClearPayload => "clear-payload",
+            Command::ExpectPayload { .. } => "expect-payload",
+            Command::Collision { .. } => "collision",
+            Command::CollisionCalibrate { .. } => "collision-calibrate",
+            Command::Stop => "stop",
+            Command::Resume => "resume",
+            Command::Record { .. } => "record",
+            Command::Watch { .. } => "watch",
+        }
+    }
+
+    /// Whether the command may move the arm or change what the monitor protects (the audit
+    /// trail records it with its origin): everything but reading (`status`, `sample`, `watch`,
+    /// `record`, `collision show`, and the previews of `estimate-payload` and
+    /// `collision-calibrate` without `apply`, which still move the arm and so count).
+    pub fn changes_state(&self) -> bool {
+        !matches!(
+            self,
+            Command::Status
+                | Command::Sample { .. }
+                | Command::Watch { .. }
+                | Command::Record { .. }
+                | Command::Collision {
+                    action: CollisionAction::Show,
+                    ..
+                }
+        )
+    }
 }
 
 /// Collision-monitor sub-command.
@@ -381,24 +418,81 @@ impl Reply {
     }
 }
 
+/// The ROS 2 participant a bridge forwards a request for (the request's `ros2` key): the
+/// service records it, with the bridge's own credentials, as the request's
+/// [`Origin`](crate::origin::Origin).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Ros2Caller {
+    /// The participant's DDS GUID, hex with `.` separators (at most
+    /// [`MAX_PARTICIPANT_LEN`](crate::origin::MAX_PARTICIPANT_LEN) characters).
+    pub participant: String,
+    /// Whether DDS Security authenticated it.
+    pub authenticated: bool,
+}
+
 /// A parsed request line.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Request {
     /// Client-chosen id.
     pub id: RequestId,
+    /// The ROS 2 participant the request is forwarded for (`None`: the client's own).
+    pub ros2: Option<Ros2Caller>,
     /// The command.
     pub command: Command,
 }
 
 impl Request {
+    /// A request of the client's own (no ROS 2 participant).
+    pub fn new(id: RequestId, command: Command) -> Self {
+        Self {
+            id,
+            ros2: None,
+            command,
+        }
+    }
+
     /// Serialises to one line without the trailing newline (used by `fri-ctl`).
     pub fn to_line(&self) -> String {
         let mut value = serde_json::to_value(&self.command).unwrap_or(Value::Null);
         if let Value::Object(map) = &mut value {
             map.insert("id".to_owned(), Value::from(self.id));
+            if let Some(caller) = &self.ros2
+                && let Ok(v) = serde_json::to_value(caller)
+            {
+                map.insert("ros2".to_owned(), v);
+            }
         }
         value.to_string()
     }
+}
+
+/// Reads and checks the request's `ros2` key (removed from `map`).
+fn take_ros2_caller(
+    id: RequestId,
+    map: &mut serde_json::Map<String, Value>,
+) -> Result<Option<Ros2Caller>, (Option<RequestId>, OperatorError)> {
+    let Some(value) = map.remove("ros2") else {
+        return Ok(None);
+    };
+    let invalid = |message: String| {
+        (
+            Some(id),
+            OperatorError::new(ErrorCode::InvalidArguments, message),
+        )
+    };
+    let caller: Ros2Caller = serde_json::from_value(value).map_err(|e| {
+        invalid(format!(
+            "`ros2` must be {{\"participant\": GUID, \"authenticated\": bool}}: {e}"
+        ))
+    })?;
+    if !crate::origin::Origin::valid_participant(&caller.participant) {
+        return Err(invalid(format!(
+            "`ros2.participant` must be 1 to {} characters of hex digits, `.` and `:`",
+            crate::origin::MAX_PARTICIPANT_LEN
+        )));
+    }
+    Ok(Some(caller))
 }
 
 /// Parses one request line. On failure returns the id (when it could be read) and the error,
@@ -455,6 +549,7 @@ pub fn parse_request(line: &[u8]) -> Result<Request, (Option<RequestId>, Operato
             ),
         ));
     }
+    let ros2 = take_ros2_caller(id, &mut map)?;
     // Ranges first: serde's messages name neither the field nor the allowed range.
     crate::arguments::check(&cmd, &map).map_err(|e| (Some(id), e))?;
     let keys: Vec<String> = map.keys().cloned().collect();
@@ -480,7 +575,7 @@ pub fn parse_request(line: &[u8]) -> Result<Request, (Option<RequestId>, Operato
             ),
         ));
     }
-    Ok(Request { id, command })
+    Ok(Request { id, ros2, command })
 }
 
 #[cfg(test)]

@@ -41,6 +41,7 @@ fn parses_commands_with_and_without_arguments() {
 fn request_line_round_trips() {
     let req = Request {
         id: 9,
+        ros2: None,
         command: Command::EstimatePayload {
             around: Some([0.1; 7]),
             poses: Some(10),
@@ -51,6 +52,34 @@ fn request_line_round_trips() {
         },
     };
     assert_eq!(parse_request(req.to_line().as_bytes()).unwrap(), req);
+    let forwarded = Request {
+        ros2: Some(Ros2Caller {
+            participant: "010f2c4d.00001234.00000001.000001c1".into(),
+            authenticated: true,
+        }),
+        ..req
+    };
+    assert_eq!(
+        parse_request(forwarded.to_line().as_bytes()).unwrap(),
+        forwarded
+    );
+}
+
+#[test]
+fn a_forwarded_participant_is_bounded() {
+    let line = |p: &str| {
+        format!(r#"{{"id":1,"cmd":"stop","ros2":{{"participant":"{p}","authenticated":true}}}}"#)
+    };
+    assert!(parse_request(line("01.02").as_bytes()).is_ok());
+    for bad in ["", "x; rm -rf", &"0".repeat(65)] {
+        let (id, e) = parse_request(line(bad).as_bytes()).unwrap_err();
+        assert_eq!(id, Some(1));
+        assert_eq!(e.code, ErrorCode::InvalidArguments);
+        assert!(e.message.contains("ros2.participant"), "{}", e.message);
+    }
+    let extra =
+        r#"{"id":1,"cmd":"stop","ros2":{"participant":"01","authenticated":true,"admin":true}}"#;
+    assert!(parse_request(extra.as_bytes()).is_err());
 }
 
 #[test]
@@ -163,8 +192,9 @@ fn every_known_name_parses_with_minimal_arguments() {
         r#"{"id":1,"cmd":"watch"}"#,
     ];
     assert_eq!(minimal.len(), Command::NAMES.len());
-    for line in minimal {
-        parse_request(line.as_bytes()).unwrap_or_else(|e| panic!("{line}: {e:?}"));
+    for (line, name) in minimal.iter().zip(Command::NAMES) {
+        let r = parse_request(line.as_bytes()).unwrap_or_else(|e| panic!("{line}: {e:?}"));
+        assert_eq!(r.command.name(), *name);
     }
 }
 

@@ -29,6 +29,8 @@ pub enum Event {
     State(StateLine),
     /// The first event of a `watch`: the subscription is live from this cycle on.
     Watching(Watching),
+    /// A safety-relevant change and who made it (`watch`; the audit trail).
+    Audit(super::audit::AuditRecord),
 }
 
 impl Event {
@@ -51,6 +53,7 @@ impl Event {
             Event::MonitorRestarted(_) => "monitor-restarted",
             Event::State(_) => "state",
             Event::Watching(_) => "watching",
+            Event::Audit(_) => "audit",
         }
     }
 }

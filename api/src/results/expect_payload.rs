@@ -19,6 +19,9 @@ pub enum DeclaredBy {
 pub struct UnknownPayload {
     /// Who declared it.
     pub declared_by: DeclaredBy,
+    /// Whose request declared it (absent from older daemons).
+    #[serde(default)]
+    pub origin: Option<crate::origin::Origin>,
     /// Largest plausible payload mass, kg.
     pub max_mass: f64,
     /// Radius around the flange point that holds the payload (its mass and centre of mass), m.

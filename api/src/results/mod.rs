@@ -7,6 +7,7 @@
 //! towards `null` where the daemon writes a non-finite float (serde_json writes NaN and ±∞ as
 //! `null`): such fields read back as NaN or +∞ as documented on the field.
 
+mod audit;
 mod calibrate;
 mod collision;
 mod estimate;
@@ -29,6 +30,7 @@ pub use fri::session::{RejectionCounters, SessionStatistics};
 /// The controller's statistics inside [`FriStatus`] and [`crate::fri_context::FriContext`].
 pub use fri::wire::InterfaceStatistics;
 
+pub use audit::{AuditRecord, Change};
 pub use calibrate::{CalibrateResult, JointFit, LinkForce};
 pub use collision::{CalibrationInfo, CollisionResult, MonitorSettings, ThresholdSchedule};
 pub use estimate::{

@@ -52,8 +52,16 @@ pub struct StatusResult {
     pub moving: bool,
     /// The payload applied to the observer (`null`: none).
     pub payload: Option<AppliedPayload>,
+    /// Who applied the payload in force (`null`: no payload, or a daemon older than this
+    /// field).
+    #[serde(default)]
+    pub payload_origin: Option<crate::origin::Origin>,
     /// Static samples of the stored tare (`null`: no tare stored).
     pub tare_samples: Option<usize>,
+    /// What makes the monitor in force weaker than the configuration file's (higher
+    /// thresholds, lower gains, a report-only reaction, disarmed); empty when nothing does.
+    #[serde(default)]
+    pub weaker_than_configuration: Vec<String>,
     /// Collision-monitor settings.
     pub monitor: MonitorSettings,
     /// The service's state in the newest cycle (`null` before the first measurement; absent

@@ -147,6 +147,7 @@ pub(super) fn print_event(event: &Event, out: &mut dyn Write) -> io::Result<()> 
                 m.cycle, m.detail
             )
         }
+        Event::Audit(a) => writeln!(out, "audit      {}: {}", a.origin, a.change),
         Event::Progress(p) => {
             let phase = serde_json::to_value(p.phase).unwrap_or_default();
             let step = match (p.step, p.of) {

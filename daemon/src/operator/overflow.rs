@@ -14,7 +14,7 @@ use tokio::net::unix::OwnedWriteHalf;
 use tokio::sync::mpsc;
 use tracing::{debug, info};
 
-use super::server::{EventSink, Handler, ServerLimits};
+use super::server::{EventSink, Handler, Peer, ServerLimits};
 use fri_api::frame::{Frame, LineReader};
 use fri_api::protocol::{Command, ErrorCode, OperatorError, Reply, Request, parse_request};
 
@@ -24,6 +24,7 @@ pub(super) const TOO_MANY: &str = "too many operator connections";
 /// Serves one over-limit connection: executes its first request only if it is `stop`.
 pub(super) async fn stop_only<H: Handler>(
     stream: UnixStream,
+    peer: Peer,
     handler: Arc<H>,
     limits: ServerLimits,
 ) {
@@ -46,10 +47,12 @@ pub(super) async fn stop_only<H: Handler>(
         Ok(Ok(Some(Frame::Line(line)))) => match parse_request(&line) {
             Ok(Request {
                 id,
+                ros2,
                 command: Command::Stop,
             }) => {
                 info!("operator `stop` accepted over the connection limit");
-                match run_forwarding_events(&*handler, id, &mut write, limits).await {
+                let origin = peer.origin(ros2);
+                match run_forwarding_events(&*handler, id, origin, &mut write, limits).await {
                     Ok(result) => Reply::ok(Some(id), result),
                     Err(e) => Reply::err(Some(id), e),
                 }
@@ -67,11 +70,12 @@ pub(super) async fn stop_only<H: Handler>(
 async fn run_forwarding_events<H: Handler>(
     handler: &H,
     id: u64,
+    origin: fri_api::origin::Origin,
     write: &mut OwnedWriteHalf,
     limits: ServerLimits,
 ) -> Result<serde_json::Value, OperatorError> {
     let (tx, mut rx) = mpsc::channel::<String>(16);
-    let run = handler.handle(Command::Stop, EventSink::new(Some(id), tx));
+    let run = handler.handle(Command::Stop, origin, EventSink::new(Some(id), tx));
     tokio::pin!(run);
     loop {
         tokio::select! {

@@ -23,7 +23,8 @@ use tracing::{debug, info, warn};
 
 use super::overflow;
 use fri_api::frame::{Frame, LineReader};
-use fri_api::protocol::{ErrorCode, OperatorError, Reply, RequestId, parse_request};
+use fri_api::origin::Origin;
+use fri_api::protocol::{ErrorCode, OperatorError, Reply, RequestId, Ros2Caller, parse_request};
 
 /// Executes operator commands; implemented by the service (and by test doubles).
 pub trait Handler: Send + Sync + 'static {
@@ -31,6 +32,7 @@ pub trait Handler: Send + Sync + 'static {
     fn handle(
         &self,
         command: fri_api::protocol::Command,
+        origin: Origin,
         events: EventSink,
     ) -> impl Future<Output = Result<Value, OperatorError>> + Send;
 }
@@ -260,8 +262,11 @@ pub async fn serve<H: Handler>(
             }
         };
         // Credentials first: even an over-limit connection may execute `stop`.
-        match stream.peer_cred() {
-            Ok(cred) if policy.allows(cred.uid(), cred.gid()) => {}
+        let peer = match stream.peer_cred() {
+            Ok(cred) if policy.allows(cred.uid(), cred.gid()) => Peer {
+                uid: cred.uid(),
+                pid: cred.pid().unwrap_or(0),
+            },
             Ok(cred) => {
                 warn!(
                     uid = cred.uid(),
@@ -280,17 +285,17 @@ pub async fn serve<H: Handler>(
                 warn!(error = %e, "cannot read operator peer credentials");
                 continue;
             }
-        }
+        };
         let handler = handler.clone();
         if let Ok(permit) = clients.clone().try_acquire_owned() {
             let shutdown = shutdown.clone();
             connections.spawn(async move {
-                connection(stream, handler, limits, shutdown).await;
+                connection(stream, peer, handler, limits, shutdown).await;
                 drop(permit);
             });
         } else if let Ok(permit) = over_limit.clone().try_acquire_owned() {
             connections.spawn(async move {
-                overflow::stop_only(stream, handler, limits).await;
+                overflow::stop_only(stream, peer, handler, limits).await;
                 drop(permit);
             });
         } else {
@@ -326,8 +331,36 @@ async fn reject(mut stream: UnixStream, code: ErrorCode, message: &str) {
     let _ = stream.write_all(line.as_bytes()).await;
 }
 
+/// The credentials of an operator-socket client, as the kernel reported them at `accept`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Peer {
+    /// User id.
+    pub uid: u32,
+    /// Process id (0 when the kernel did not report it).
+    pub pid: i32,
+}
+
+impl Peer {
+    /// The origin of a request from this peer, forwarded for `ros2` when it says so.
+    pub fn origin(self, ros2: Option<Ros2Caller>) -> Origin {
+        match ros2 {
+            None => Origin::Operator {
+                uid: self.uid,
+                pid: self.pid,
+            },
+            Some(c) => Origin::Ros2 {
+                participant: c.participant,
+                authenticated: c.authenticated,
+                uid: self.uid,
+                pid: self.pid,
+            },
+        }
+    }
+}
+
 async fn connection<H: Handler>(
     stream: UnixStream,
+    peer: Peer,
     handler: Arc<H>,
     limits: ServerLimits,
     mut shutdown: watch::Receiver<bool>,
@@ -420,7 +453,8 @@ async fn connection<H: Handler>(
         let id = request.id;
         let task = tasks.spawn(async move {
             let sink = EventSink::new(Some(request.id), out.clone());
-            let reply = match handler.handle(request.command, sink).await {
+            let origin = peer.origin(request.ros2);
+            let reply = match handler.handle(request.command, origin, sink).await {
                 Ok(result) => Reply::ok(Some(request.id), result),
                 Err(e) => Reply::err(Some(request.id), e),
             };

@@ -58,6 +58,8 @@ pub(crate) struct Persistent {
     pub(crate) unknown_payload: Option<super::workflow::expect_payload::UnknownPayloadState>,
     /// Declarations of an unknown payload so far (numbers them).
     pub(crate) declarations: u32,
+    /// Who applied the payload in force (`None`: no payload).
+    pub(crate) payload_origin: Option<fri_api::origin::Origin>,
 }
 
 /// The service (see the module documentation).
@@ -74,6 +76,8 @@ pub struct ServiceCore {
     /// The last `collision-calibrate` recording (for `source: last-recording`).
     pub(crate) calibration_recording:
         Mutex<Option<super::workflow::calibrate::CalibrationRecording>>,
+    /// The audit trail (`crate::audit`).
+    pub(crate) audit: Arc<crate::audit::Audit>,
 }
 
 impl std::fmt::Debug for ServiceCore {
@@ -146,7 +150,9 @@ impl ServiceCore {
         ipc: Option<IpcSender>,
         fri_state: Option<FriStateSource>,
     ) -> Self {
+        let payload_origin = payload.map(|_| fri_api::origin::Origin::Restored);
         let state = Persistent {
+            payload_origin,
             payload,
             tare,
             armed: config.observer.armed,
@@ -169,7 +175,13 @@ impl ServiceCore {
             ipc,
             fri_state,
             calibration_recording: Mutex::new(None),
+            audit: Arc::new(crate::audit::Audit::new()),
         }
+    }
+
+    /// The audit trail.
+    pub fn audit(&self) -> &Arc<crate::audit::Audit> {
+        &self.audit
     }
 
     /// The configuration.

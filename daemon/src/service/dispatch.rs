@@ -10,15 +10,30 @@ use super::core::ServiceCore;
 use super::workflow::collision::MonitorChange;
 use crate::operator::server::{EventSink, Handler};
 use crate::persistence::AppliedPayload;
-use fri_api::protocol::{Command, ErrorCode, OperatorError};
+use fri_api::origin::Origin;
+use fri_api::protocol::{CollisionAction, Command, ErrorCode, OperatorError};
+use fri_api::results::Change;
 
 /// Adapts [`ServiceCore`] to the socket server's [`Handler`].
 #[derive(Debug, Clone)]
 pub struct Dispatcher(pub Arc<ServiceCore>);
 
 impl Handler for Dispatcher {
-    async fn handle(&self, command: Command, events: EventSink) -> Result<Value, OperatorError> {
+    async fn handle(
+        &self,
+        command: Command,
+        origin: Origin,
+        events: EventSink,
+    ) -> Result<Value, OperatorError> {
         let s = &self.0;
+        if command.changes_state() {
+            s.audit.record(
+                &origin,
+                Change::Command {
+                    command: command.name().to_owned(),
+                },
+            );
+        }
         match command {
             Command::Status => reply(Ok(s.status())),
             Command::Sample { duration_s } => reply(s.sample(duration_s).await),
@@ -35,7 +50,11 @@ impl Handler for Dispatcher {
                     pattern.unwrap_or(s.config.estimation.pattern),
                     &events,
                 )
-                .await,
+                .await
+                .inspect(|t| {
+                    s.audit
+                        .record(&origin, Change::TareStored { samples: t.samples });
+                }),
             ),
             Command::EstimatePayload {
                 around,
@@ -52,34 +71,54 @@ impl Handler for Dispatcher {
                     pattern,
                     use_tare,
                     apply.unwrap_or(false),
+                    &origin,
                     &events,
                 )
                 .await,
             ),
             Command::ApplyPayload { mass, com } => {
-                reply(s.apply_payload(Some(AppliedPayload { mass, com })))
+                reply(s.apply_payload(Some(AppliedPayload { mass, com }), &origin))
             }
-            Command::ClearPayload => reply(s.apply_payload(None)),
+            Command::ClearPayload => reply(s.apply_payload(None, &origin)),
             Command::ExpectPayload {
                 max_mass,
                 max_radius,
                 end,
-            } => reply(s.expect_payload(max_mass, max_radius, end.unwrap_or(false))),
+            } => reply(s.expect_payload(max_mass, max_radius, end.unwrap_or(false), &origin)),
             Command::Collision {
                 action,
                 thresholds,
                 gains,
                 reaction,
                 pause_s,
-            } => reply(s.collision(
-                action,
-                MonitorChange {
-                    thresholds,
-                    gains,
-                    reaction,
-                    pause_s,
-                },
-            )),
+            } => {
+                let result = s.collision(
+                    action,
+                    MonitorChange {
+                        thresholds,
+                        gains,
+                        reaction,
+                        pause_s,
+                    },
+                );
+                if let Ok(settings) = &result {
+                    let change = match action {
+                        CollisionAction::Show => None,
+                        CollisionAction::Arm => Some(Change::Armed),
+                        CollisionAction::Disarm => Some(Change::Disarmed),
+                        CollisionAction::Configure => Some(Change::MonitorConfigured {
+                            thresholds: settings.thresholds,
+                            gains: settings.gains,
+                            reaction: settings.reaction,
+                            weaker_than_configuration: s.weaker_than_configuration(settings),
+                        }),
+                    };
+                    if let Some(change) = change {
+                        s.audit.record(&origin, change);
+                    }
+                }
+                reply(result)
+            }
             Command::CollisionCalibrate {
                 source,
                 duration_s,
@@ -91,12 +130,25 @@ impl Handler for Dispatcher {
                     duration_s,
                     budget_per_hour,
                     apply.unwrap_or(false),
+                    &origin,
                     &events,
                 )
                 .await,
             ),
-            Command::Stop => reply(s.stop().await),
-            Command::Resume => reply(s.resume().await),
+            Command::Stop => {
+                let result = s.stop().await;
+                if result.is_ok() {
+                    s.audit.record(&origin, Change::Stopped);
+                }
+                reply(result)
+            }
+            Command::Resume => {
+                let result = s.resume().await;
+                if result.is_ok() {
+                    s.audit.record(&origin, Change::Resumed);
+                }
+                reply(result)
+            }
             Command::Record {
                 path,
                 kind,

@@ -13,6 +13,7 @@
 //! with a contact in it would calibrate the contact away.
 
 use fri_api::cause::Cause;
+use fri_api::origin::Origin;
 use fri_api::pattern::PatternKind;
 use fri_api::protocol::{CalibrationSource, ErrorCode, OperatorError};
 use fri_api::results::{
@@ -106,6 +107,7 @@ impl ServiceCore {
         duration_s: Option<f64>,
         budget_per_hour: Option<f64>,
         apply: bool,
+        origin: &Origin,
         events: &EventSink,
     ) -> Result<CalibrateResult, OperatorError> {
         let _guard = self.busy()?;
@@ -181,6 +183,13 @@ impl ServiceCore {
             schedule: Some(result.schedule.clone()),
             calibration: Some(result.recording.clone()),
         })?;
+        self.audit.record(
+            origin,
+            fri_api::results::Change::CalibrationInstalled {
+                thresholds: result.schedule.thresholds,
+                budget_per_hour: budget,
+            },
+        );
         Ok(CalibrateResult {
             applied: true,
             settings: self.monitor_settings(),

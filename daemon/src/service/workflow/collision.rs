@@ -166,4 +166,49 @@ impl ServiceCore {
             }
         })
     }
+
+    /// What makes `settings` weaker than the configuration file's monitor (empty: nothing):
+    /// a threshold above the configured one, a gain below it, a reaction that no longer holds
+    /// the arm, a disarmed monitor. The audit trail and `status` name these.
+    pub(crate) fn weaker_than_configuration(&self, settings: &CollisionResult) -> Vec<String> {
+        weaker_than(&self.config, settings)
+    }
+}
+
+/// What makes `settings` weaker than `config`'s monitor (see
+/// [`ServiceCore::weaker_than_configuration`]).
+pub(crate) fn weaker_than(
+    config: &crate::config::Config,
+    settings: &CollisionResult,
+) -> Vec<String> {
+    let mut weaker = Vec::new();
+    let configured = &config.observer;
+    if configured.armed && !settings.armed {
+        weaker.push("disarmed (the configuration arms the monitor)".to_owned());
+    }
+    for j in 0..7 {
+        if settings.thresholds[j] > configured.thresholds[j] {
+            weaker.push(format!(
+                "joint {} threshold {:.3} Nm above the configuration's {:.3} Nm",
+                j + 1,
+                settings.thresholds[j],
+                configured.thresholds[j]
+            ));
+        }
+        if settings.gains[j] < configured.gains[j] {
+            weaker.push(format!(
+                "joint {} gain {:.1} 1/s below the configuration's {:.1} 1/s",
+                j + 1,
+                settings.gains[j],
+                configured.gains[j]
+            ));
+        }
+    }
+    if settings.reaction == ReactionMode::Report && config.reaction.policy != ReactionMode::Report {
+        weaker.push(format!(
+            "report-only reaction (the configuration's is `{}`)",
+            config.reaction.policy.name()
+        ));
+    }
+    weaker
 }

@@ -2,6 +2,7 @@
 //! with the stored tare when it matches), optionally applied.
 
 use dynamics::Model;
+use fri_api::origin::Origin;
 use fri_api::results::{
     Correction, EstimateMethod, EstimateResult, Event, Phase, Progress, SourceShare,
     UncertaintyReport, UncertaintySource, Workflow,
@@ -32,10 +33,11 @@ impl ServiceCore {
         kind: Option<PatternKind>,
         use_tare: Option<bool>,
         apply: bool,
+        origin: &Origin,
         events: &EventSink,
     ) -> Result<EstimateResult, OperatorError> {
         let _guard = self.busy()?;
-        self.expect_payload_when_unexplained().await?;
+        self.expect_payload_when_unexplained(origin).await?;
         let tare = self.persistent(|s| s.tare.clone());
         // A stored tare fixes the pattern: by default the estimate runs at the tare's poses (a
         // retry after an abort must not centre on wherever the arm stopped), in the reverse of
@@ -166,10 +168,13 @@ impl ServiceCore {
             });
         }
         if apply {
-            self.apply_payload(Some(AppliedPayload {
-                mass: estimate.mass,
-                com: estimate.com,
-            }))?;
+            self.apply_payload(
+                Some(AppliedPayload {
+                    mass: estimate.mass,
+                    com: estimate.com,
+                }),
+                origin,
+            )?;
         }
         Ok(result)
     }

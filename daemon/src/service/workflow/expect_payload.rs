@@ -11,8 +11,9 @@
 use std::time::Duration;
 
 use dynamics::{Data, compute_generalized_gravity};
+use fri_api::origin::Origin;
 use fri_api::protocol::{ErrorCode, OperatorError};
-use fri_api::results::{DeclaredBy, ExpectPayloadResult, UnknownPayload};
+use fri_api::results::{Change, DeclaredBy, ExpectPayloadResult, UnknownPayload};
 use safety::{FlangeLoadBounds, LoadSample, PayloadHypothesis, fit_hypothesis};
 
 use crate::persistence::StaticSample;
@@ -38,6 +39,8 @@ pub(crate) struct UnknownPayloadState {
     pub(crate) declaration: u32,
     /// Who declared it.
     pub(crate) declared_by: DeclaredBy,
+    /// Whose request declared it.
+    pub(crate) origin: Origin,
     /// What the payload may be.
     pub(crate) bounds: FlangeLoadBounds,
     /// Static samples since the declaration.
@@ -51,6 +54,7 @@ impl UnknownPayloadState {
         let h = self.hypothesis.as_ref();
         UnknownPayload {
             declared_by: self.declared_by,
+            origin: Some(self.origin.clone()),
             max_mass: self.bounds.max_mass_kg,
             max_radius: self.bounds.radius_m,
             samples: self.samples.len(),
@@ -69,6 +73,7 @@ impl ServiceCore {
         max_mass: Option<f64>,
         max_radius: Option<f64>,
         end: bool,
+        origin: &Origin,
     ) -> Result<ExpectPayloadResult, OperatorError> {
         if end {
             if max_mass.is_some() || max_radius.is_some() {
@@ -78,8 +83,14 @@ impl ServiceCore {
                 ));
             }
             self.send(CycleRequest::EndExpectPayload)?;
-            self.persistent(|s| s.unknown_payload = None);
-            tracing::info!("unknown-payload mode ended by the operator");
+            if self.persistent(|s| s.unknown_payload.take().is_some()) {
+                self.audit.record(
+                    origin,
+                    Change::UnknownPayloadEnded {
+                        reason: "ended".to_owned(),
+                    },
+                );
+            }
             return Ok(ExpectPayloadResult {
                 unknown_payload: None,
             });
@@ -95,7 +106,7 @@ impl ServiceCore {
                 fri_api::bounds::UNKNOWN_PAYLOAD_RADIUS.check("max_radius", bounds.radius_m)
             })
             .map_err(OperatorError::out_of_range)?;
-        self.declare_unknown_payload(bounds, DeclaredBy::Operator)?;
+        self.declare_unknown_payload(bounds, DeclaredBy::Operator, origin)?;
         Ok(ExpectPayloadResult {
             unknown_payload: self.unknown_payload_status(),
         })
@@ -106,6 +117,7 @@ impl ServiceCore {
         &self,
         bounds: FlangeLoadBounds,
         declared_by: DeclaredBy,
+        origin: &Origin,
     ) -> Result<(), OperatorError> {
         let declaration = self.persistent(|s| {
             s.declarations = s.declarations.wrapping_add(1);
@@ -119,16 +131,18 @@ impl ServiceCore {
             s.unknown_payload = Some(UnknownPayloadState {
                 declaration,
                 declared_by,
+                origin: origin.clone(),
                 bounds,
                 samples: Vec::new(),
                 hypothesis: None,
             });
         });
-        tracing::info!(
-            max_mass_kg = bounds.max_mass_kg,
-            radius_m = bounds.radius_m,
-            ?declared_by,
-            "payload declared unknown: the armed monitor tolerates a plausible flange load"
+        self.audit.record(
+            origin,
+            Change::PayloadDeclaredUnknown {
+                max_mass: bounds.max_mass_kg,
+                max_radius: bounds.radius_m,
+            },
         );
         Ok(())
     }
@@ -183,7 +197,10 @@ impl ServiceCore {
     /// estimate then runs in the unknown-payload mode with the configured bounds. Never while
     /// the arm is held or a contact is detected: what tripped the monitor is resolved by the
     /// operator (`expect-payload`, `resume`), not reclassified as a payload by a workflow.
-    pub(crate) async fn expect_payload_when_unexplained(&self) -> Result<(), OperatorError> {
+    pub(crate) async fn expect_payload_when_unexplained(
+        &self,
+        origin: &Origin,
+    ) -> Result<(), OperatorError> {
         let (armed, active, thresholds) =
             self.persistent(|s| (s.armed, s.unknown_payload.is_some(), s.thresholds));
         if !armed || active {
@@ -218,6 +235,7 @@ impl ServiceCore {
                     radius_m: c.max_radius_m,
                 },
                 DeclaredBy::EstimatePayload,
+                origin,
             )?;
         }
         Ok(())

@@ -1,7 +1,8 @@
 //! `apply-payload` / `clear-payload`: install a payload in the observer (paper eq. 48),
 //! persist it and publish it.
 
-use fri_api::results::PayloadResult;
+use fri_api::origin::Origin;
+use fri_api::results::{Change, PayloadResult};
 
 use super::status::applied;
 
@@ -13,7 +14,11 @@ use fri_api::protocol::{ErrorCode, OperatorError};
 
 impl ServiceCore {
     /// `apply-payload`: to the observer and persisted.
-    pub fn apply_payload(&self, p: Option<AppliedPayload>) -> Result<PayloadResult, OperatorError> {
+    pub fn apply_payload(
+        &self,
+        p: Option<AppliedPayload>,
+        origin: &Origin,
+    ) -> Result<PayloadResult, OperatorError> {
         if let Some(p) = &p {
             let ok = p.mass.is_finite()
                 && p.mass >= 0.0
@@ -34,10 +39,29 @@ impl ServiceCore {
             )
         })?;
         // The loop ended the unknown-payload mode with this payload (same request).
-        self.persistent(|s| {
+        let was_unknown = self.persistent(|s| {
             s.payload = p;
-            s.unknown_payload = None;
+            s.payload_origin = p.map(|_| origin.clone());
+            s.unknown_payload.take().is_some()
         });
+        self.audit.record(
+            origin,
+            match &p {
+                Some(p) => Change::PayloadApplied {
+                    mass: p.mass,
+                    com: p.com,
+                },
+                None => Change::PayloadCleared,
+            },
+        );
+        if was_unknown {
+            self.audit.record(
+                origin,
+                Change::UnknownPayloadEnded {
+                    reason: if p.is_some() { "applied" } else { "cleared" }.to_owned(),
+                },
+            );
+        }
         if let Some(ipc) = &self.ipc {
             let latest = self.shared.latest();
             ipc.payload(&IpcPayload {

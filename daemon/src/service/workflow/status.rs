@@ -15,9 +15,15 @@ impl ServiceCore {
         let connected = self.connected(newest).is_ok();
         let snapshot = newest.map(|(s, _)| s);
         let latest = snapshot.map(|s| s.robot);
-        let (payload, tare) =
-            self.persistent(|p| (p.payload, p.tare.as_ref().map(|t| t.samples.len())));
+        let (payload, payload_origin, tare) = self.persistent(|p| {
+            (
+                p.payload,
+                p.payload_origin.clone(),
+                p.tare.as_ref().map(|t| t.samples.len()),
+            )
+        });
         let monitor = self.monitor_settings();
+        let weaker_than_configuration = self.weaker_than_configuration(&monitor);
         let fri = self.fri_state.as_ref().map(|f| {
             let s = f();
             FriStatus {
@@ -50,7 +56,9 @@ impl ServiceCore {
             observer_fault: snapshot.is_some_and(|s| s.observer_fault()),
             moving: snapshot.is_some_and(|s| s.moving()),
             payload: payload.map(|p| applied(&p)),
+            payload_origin,
             tare_samples: tare,
+            weaker_than_configuration,
             monitor,
             unknown_payload: self.unknown_payload_status(),
         }

@@ -65,6 +65,7 @@ impl ServiceCore {
         sink: &EventSink,
     ) -> Result<WatchResult, OperatorError> {
         let mut updates = self.shared.subscribe();
+        let mut audit = self.audit.subscribe();
         // Says from which cycle on nothing is missed: a client (or test) acts after this event,
         // not after a guessed delay.
         let from = self.shared.latest().map(|s| s.robot.cycle);
@@ -95,6 +96,11 @@ impl ServiceCore {
                         .await
                     }
                     Ok(Update::Snapshot(_)) | Err(RecvError::Lagged(_)) => true,
+                    Err(RecvError::Closed) => false,
+                },
+                a = audit.recv() => match a {
+                    Ok(record) => sink.event(&Event::Audit(record)).await,
+                    Err(RecvError::Lagged(_)) => true,
                     Err(RecvError::Closed) => false,
                 },
                 // Notice a vanished client even when nothing happens.

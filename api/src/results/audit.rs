@@ -1,0 +1,184 @@
+//! The audit trail: one record per safety-relevant change, with who made it. The service logs
+//! each as one structured line (target `fri_service::audit`) and streams it to `watch` as the
+//! `audit` event.
+
+use serde::{Deserialize, Serialize};
+
+use crate::origin::Origin;
+use crate::protocol::ReactionMode;
+
+/// One safety-relevant change and its origin.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AuditRecord {
+    /// When the service made the change, s since the Unix epoch (host clock).
+    pub time_unix_s: f64,
+    /// Who asked for it.
+    pub origin: Origin,
+    /// What changed.
+    pub change: Change,
+    /// Records dropped before this one by the audit log's volume bound (log lines only; every
+    /// record still reaches `watch`).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub suppressed_before: u64,
+}
+
+fn is_zero(n: &u64) -> bool {
+    *n == 0
+}
+
+/// A safety-relevant change.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "what", rename_all = "kebab-case")]
+pub enum Change {
+    /// A command that changes the arm or the monitor was accepted (before it runs).
+    Command {
+        /// The command's protocol name (`tare`, `collision`, …).
+        command: String,
+    },
+    /// The collision monitor was armed.
+    Armed,
+    /// The collision monitor was disarmed: contacts are no longer reacted to.
+    Disarmed,
+    /// The monitor's thresholds, gains or reaction were set.
+    MonitorConfigured {
+        /// Detection thresholds, Nm (joints 1..7).
+        thresholds: [f64; 7],
+        /// Observer gains, 1/s.
+        gains: [f64; 7],
+        /// Reaction to a contact.
+        reaction: ReactionMode,
+        /// What makes these settings weaker than the configuration file's (empty: none).
+        weaker_than_configuration: Vec<String>,
+    },
+    /// Calibrated thresholds were installed (`collision calibrate --apply`).
+    CalibrationInstalled {
+        /// Static thresholds θ₀, Nm.
+        thresholds: [f64; 7],
+        /// False alarms per hour the calibration was fitted for, whole arm.
+        budget_per_hour: f64,
+    },
+    /// A payload was applied to the monitor (and persisted).
+    PayloadApplied {
+        /// Mass, kg.
+        mass: f64,
+        /// Centre of mass in frame 7, m.
+        com: [f64; 3],
+    },
+    /// The applied payload was removed.
+    PayloadCleared,
+    /// The payload was declared unknown (`expect-payload`).
+    PayloadDeclaredUnknown {
+        /// Largest tolerated mass, kg.
+        max_mass: f64,
+        /// Radius around the flange point that holds the load, m.
+        max_radius: f64,
+    },
+    /// The unknown-payload mode ended.
+    UnknownPayloadEnded {
+        /// Why (`applied`, `ended`, `expired`, …).
+        reason: String,
+    },
+    /// The arm was stopped by the operator.
+    Stopped,
+    /// The arm was released after a stop or a collision reaction.
+    Resumed,
+    /// A tare was stored.
+    TareStored {
+        /// Static samples in it.
+        samples: usize,
+    },
+    /// The monitor detected a contact.
+    Collision {
+        /// Isolated link, 1..7.
+        link: u32,
+        /// Residual at the onset, Nm (joints 1..7).
+        residual: [f64; 7],
+    },
+    /// Settings restored at start from the state directory.
+    Restored {
+        /// Which file (`monitor.json`, `payload.json`, …).
+        file: String,
+        /// What makes the restored settings weaker than the configuration file's (empty: none).
+        weaker_than_configuration: Vec<String>,
+    },
+}
+
+impl std::fmt::Display for Change {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let values = |v: &[f64; 7], digits: usize| {
+            v.iter()
+                .map(|x| format!("{x:.digits$}"))
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        match self {
+            Change::Command { command } => write!(f, "command `{command}` accepted"),
+            Change::Armed => f.write_str("collision monitor armed"),
+            Change::Disarmed => f.write_str("collision monitor DISARMED"),
+            Change::MonitorConfigured {
+                thresholds,
+                gains,
+                reaction,
+                weaker_than_configuration,
+            } => {
+                write!(
+                    f,
+                    "monitor configured: thresholds [Nm] {}, gains [1/s] {}, reaction {}",
+                    values(thresholds, 2),
+                    values(gains, 0),
+                    reaction.name()
+                )?;
+                weaker(f, weaker_than_configuration)
+            }
+            Change::CalibrationInstalled {
+                thresholds,
+                budget_per_hour,
+            } => write!(
+                f,
+                "calibrated thresholds installed: θ0 [Nm] {} for {budget_per_hour} false alarms/h",
+                values(thresholds, 2)
+            ),
+            Change::PayloadApplied { mass, com } => write!(
+                f,
+                "payload applied: {mass:.4} kg at ({:.1}, {:.1}, {:.1}) mm in frame 7",
+                com[0] * 1e3,
+                com[1] * 1e3,
+                com[2] * 1e3
+            ),
+            Change::PayloadCleared => f.write_str("payload cleared"),
+            Change::PayloadDeclaredUnknown {
+                max_mass,
+                max_radius,
+            } => write!(
+                f,
+                "payload declared unknown: up to {max_mass} kg within {max_radius} m of the flange"
+            ),
+            Change::UnknownPayloadEnded { reason } => {
+                write!(f, "unknown-payload mode ended ({reason})")
+            }
+            Change::Stopped => f.write_str("arm stopped"),
+            Change::Resumed => f.write_str("arm released"),
+            Change::TareStored { samples } => write!(f, "tare stored ({samples} samples)"),
+            Change::Collision { link, residual } => write!(
+                f,
+                "collision on link {link}, residual [Nm] {}",
+                values(residual, 2)
+            ),
+            Change::Restored {
+                file,
+                weaker_than_configuration,
+            } => {
+                write!(f, "restored from {file}")?;
+                weaker(f, weaker_than_configuration)
+            }
+        }
+    }
+}
+
+fn weaker(f: &mut std::fmt::Formatter<'_>, what: &[String]) -> std::fmt::Result {
+    if what.is_empty() {
+        Ok(())
+    } else {
+        write!(f, "; WEAKER than the configuration: {}", what.join("; "))
+    }
+}

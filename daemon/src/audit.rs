@@ -1,0 +1,166 @@
+//! The audit trail: every safety-relevant change is one structured log line (target
+//! `fri_service::audit`, level INFO, or WARN for a change that weakens the monitor) naming its
+//! origin, and one `audit` event to every `watch`.
+//!
+//! The log's volume is bounded by a token bucket ([`BURST`] lines, refilled at [`RATE_PER_S`]
+//! lines/s): a flood of requests or contacts cannot fill the disk. A dropped line is counted and
+//! the next line that is written says how many were dropped before it. The `watch` stream is not
+//! thinned (its broadcast channel is bounded on its own; a slow watcher lags and is told so).
+
+use std::sync::Mutex;
+use std::time::{Instant, SystemTime, UNIX_EPOCH};
+
+use fri_api::origin::Origin;
+use fri_api::results::{AuditRecord, Change};
+use tokio::sync::broadcast;
+
+/// Lines the log may write at once after a quiet period.
+pub const BURST: f64 = 100.0;
+/// Lines per second the log may write in the long run.
+pub const RATE_PER_S: f64 = 10.0;
+/// Audit records kept for a slow `watch` client.
+const BACKLOG: usize = 256;
+
+#[derive(Debug)]
+struct Bucket {
+    tokens: f64,
+    at: Instant,
+    suppressed: u64,
+}
+
+/// The audit trail of one service (shared by the workflows, the operator server and the
+/// stream thread; never touched by the real-time loop).
+#[derive(Debug)]
+pub struct Audit {
+    bucket: Mutex<Bucket>,
+    records: broadcast::Sender<AuditRecord>,
+}
+
+impl Default for Audit {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Audit {
+    /// An empty trail with a full bucket.
+    pub fn new() -> Self {
+        Self {
+            bucket: Mutex::new(Bucket {
+                tokens: BURST,
+                at: Instant::now(),
+                suppressed: 0,
+            }),
+            records: broadcast::channel(BACKLOG).0,
+        }
+    }
+
+    /// Every following record.
+    pub fn subscribe(&self) -> broadcast::Receiver<AuditRecord> {
+        self.records.subscribe()
+    }
+
+    /// Records `change` made by `origin`: one log line (unless the volume bound drops it) and
+    /// one event to every watcher. Returns the record.
+    pub fn record(&self, origin: &Origin, change: Change) -> AuditRecord {
+        let time_unix_s = SystemTime::now()
+            .duration_since(UNIX_EPOCH)
+            .map_or(0.0, |d| d.as_secs_f64());
+        let admitted = self.admit();
+        let record = AuditRecord {
+            time_unix_s,
+            origin: origin.clone(),
+            change,
+            suppressed_before: admitted.unwrap_or(0),
+        };
+        if admitted.is_some() {
+            log(&record);
+        }
+        let _ = self.records.send(record.clone());
+        record
+    }
+
+    /// Takes a token: `Some(dropped before)` when the line may be written.
+    fn admit(&self) -> Option<u64> {
+        let mut b = match self.bucket.lock() {
+            Ok(g) => g,
+            Err(p) => p.into_inner(),
+        };
+        let now = Instant::now();
+        let refill = now.duration_since(b.at).as_secs_f64() * RATE_PER_S;
+        b.tokens = (b.tokens + refill).min(BURST);
+        b.at = now;
+        if b.tokens >= 1.0 {
+            b.tokens -= 1.0;
+            Some(std::mem::take(&mut b.suppressed))
+        } else {
+            b.suppressed += 1;
+            None
+        }
+    }
+}
+
+/// Whether `change` weakens the protection (logged at WARN).
+fn weakens(change: &Change) -> bool {
+    match change {
+        Change::Disarmed | Change::Resumed | Change::PayloadDeclaredUnknown { .. } => true,
+        Change::MonitorConfigured {
+            weaker_than_configuration,
+            ..
+        }
+        | Change::Restored {
+            weaker_than_configuration,
+            ..
+        } => !weaker_than_configuration.is_empty(),
+        _ => false,
+    }
+}
+
+fn log(record: &AuditRecord) {
+    let change = serde_json::to_string(&record.change).unwrap_or_default();
+    let origin = record.origin.to_string();
+    let suppressed = record.suppressed_before;
+    if weakens(&record.change) {
+        tracing::warn!(target: "fri_service::audit", %origin, %change, suppressed, "audit");
+    } else {
+        tracing::info!(target: "fri_service::audit", %origin, %change, suppressed, "audit");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_log_is_bounded_and_says_what_it_dropped() {
+        let audit = Audit::new();
+        let mut rx = audit.subscribe();
+        let o = Origin::Service;
+        let n = BURST as usize + 50;
+        let records: Vec<AuditRecord> = (0..n).map(|_| audit.record(&o, Change::Stopped)).collect();
+        // Every record reaches the watchers.
+        for _ in 0..n {
+            assert!(rx.try_recv().is_ok());
+        }
+        // The burst is written; the rest waits for tokens. A later written line reports the
+        // drops before it.
+        assert!(records.iter().all(|r| r.suppressed_before == 0));
+        {
+            let mut b = audit.bucket.lock().unwrap_or_else(|p| p.into_inner());
+            assert!(b.suppressed >= 45, "{}", b.suppressed);
+            b.tokens = 1.0;
+        }
+        let next = audit.record(&o, Change::Resumed);
+        assert!(next.suppressed_before >= 45, "{}", next.suppressed_before);
+    }
+
+    #[test]
+    fn weakening_changes_are_warnings() {
+        assert!(weakens(&Change::Disarmed));
+        assert!(!weakens(&Change::Armed));
+        assert!(weakens(&Change::Restored {
+            file: "monitor.json".into(),
+            weaker_than_configuration: vec!["report-only reaction".into()],
+        }));
+    }
+}

@@ -59,9 +59,9 @@ async fn watch_audit(mut c: Client, n: usize) -> tokio::task::JoinHandle<Vec<Aud
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn every_change_names_its_origin_operator_or_ros2_participant() {
     let dir = tempfile::tempdir().unwrap();
-    let h = InProcess::start(local_config(dir.path(), "audit"))
-        .await
-        .unwrap();
+    let mut config = local_config(dir.path(), "audit");
+    config.ros2 = Some(toml::from_str("allow_unauthenticated_commands = true").unwrap());
+    let h = InProcess::start(config).await.unwrap();
     // command, disarmed; command, payload applied.
     let audit = watch_audit(h.client().await.unwrap(), 4).await;
     let mut c = h.client().await.unwrap();
@@ -105,6 +105,7 @@ async fn every_change_names_its_origin_operator_or_ros2_participant() {
         "{:?}",
         status.payload_origin
     );
+    assert!(status.ros2_unauthenticated_commands);
     // Disarmed while the configuration arms: status says the monitor is weaker.
     assert!(
         status
@@ -114,5 +115,39 @@ async fn every_change_names_its_origin_operator_or_ros2_participant() {
         "{:?}",
         status.weaker_than_configuration
     );
+    h.stop().await.unwrap();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_unauthenticated_ros2_caller_is_refused_unless_the_configuration_allows_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let h = InProcess::start(local_config(dir.path(), "auditunauth"))
+        .await
+        .unwrap();
+    let mut c = h.client().await.unwrap();
+    let caller = |authenticated| {
+        Some(Ros2Caller {
+            participant: "010f2c4d.00001234.00000001.000001c1".into(),
+            authenticated,
+        })
+    };
+    let e = c
+        .call_for(caller(false), collision(CollisionAction::Disarm), |_, _| {})
+        .await
+        .unwrap()
+        .unwrap_err();
+    assert!(
+        e.message.contains("allow_unauthenticated_commands") && e.message.contains("010f2c4d"),
+        "{e:?}"
+    );
+    let status: StatusResult =
+        serde_json::from_value(c.call(Command::Status, |_, _| {}).await.unwrap().unwrap()).unwrap();
+    assert!(status.monitor.armed, "the refused disarm did nothing");
+    assert!(!status.ros2_unauthenticated_commands);
+    // An authenticated participant (the bridge runs with DDS Security) is served.
+    c.call_for(caller(true), collision(CollisionAction::Disarm), |_, _| {})
+        .await
+        .unwrap()
+        .unwrap();
     h.stop().await.unwrap();
 }

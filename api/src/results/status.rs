@@ -64,6 +64,11 @@ pub struct StatusResult {
     pub weaker_than_configuration: Vec<String>,
     /// Collision-monitor settings.
     pub monitor: MonitorSettings,
+    /// The configuration's `[ros2] allow_unauthenticated_commands` is true: the service accepts
+    /// commands a ROS 2 bridge forwards for participants DDS Security did not authenticate
+    /// (absent from older daemons: false).
+    #[serde(default)]
+    pub ros2_unauthenticated_commands: bool,
     /// The service's state in the newest cycle (`null` before the first measurement; absent
     /// from daemons older than this field).
     #[serde(default)]

@@ -43,6 +43,20 @@ fn example_file_parses_and_matches_defaults() {
 }
 
 #[test]
+fn the_service_reads_the_bridges_unauthenticated_commands_key_typed() {
+    let c = Config::from_toml("[ros2]\nnamespace = \"/lwr\"\n").unwrap();
+    assert!(!c.ros2_unauthenticated_commands());
+    let c = Config::from_toml("[ros2]\nallow_unauthenticated_commands = true\n").unwrap();
+    assert!(c.ros2_unauthenticated_commands());
+    let err = Config::from_toml("[ros2]\nallow_unauthenticated_commands = \"yes\"\n").unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("ros2.allow_unauthenticated_commands"),
+        "{err}"
+    );
+}
+
+#[test]
 fn unknown_key_is_rejected_with_its_name() {
     let err = Config::from_toml("[fri]\nbnid = \"0.0.0.0:1\"\n").unwrap_err();
     let text = err.to_string();

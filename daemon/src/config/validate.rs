@@ -240,9 +240,29 @@ impl Config {
                 "must be 1-32 characters of [A-Za-z0-9_]",
             )?;
         }
+        if let Some(v) = self.ros2.as_ref().and_then(|t| t.get(ROS2_UNAUTHENTICATED)) {
+            check(
+                "ros2.allow_unauthenticated_commands",
+                v.is_bool(),
+                "must be true or false",
+            )?;
+        }
         Ok(())
     }
+
+    /// `[ros2] allow_unauthenticated_commands` (default false): the bridge forwards commands of
+    /// participants DDS Security did not authenticate, and the service accepts them.
+    pub fn ros2_unauthenticated_commands(&self) -> bool {
+        self.ros2
+            .as_ref()
+            .and_then(|t| t.get(ROS2_UNAUTHENTICATED))
+            .and_then(toml::Value::as_bool)
+            .unwrap_or(false)
+    }
 }
+
+/// The one `[ros2]` key the service reads itself.
+const ROS2_UNAUTHENTICATED: &str = "allow_unauthenticated_commands";
 
 /// Most entries of `operator.allowed_uids` and `operator.allowed_gids` each.
 pub const MAX_ALLOWED_IDS: usize = 256;

@@ -26,6 +26,29 @@ impl Handler for Dispatcher {
         events: EventSink,
     ) -> Result<Value, OperatorError> {
         let s = &self.0;
+        if let Origin::Ros2 {
+            participant,
+            authenticated: false,
+            ..
+        } = &origin
+            && !s.config.ros2_unauthenticated_commands()
+        {
+            // Defence in depth: a bridge that forwards what DDS Security did not authenticate
+            // needs this service's own consent too.
+            tracing::warn!(
+                %origin,
+                command = command.name(),
+                "refused: unauthenticated ROS 2 participant"
+            );
+            return Err(OperatorError::new(
+                ErrorCode::InvalidArguments,
+                format!(
+                    "refused: ROS 2 participant {participant} is not authenticated and this \
+                     service's configuration does not accept unauthenticated commands \
+                     ([ros2] allow_unauthenticated_commands)"
+                ),
+            ));
+        }
         if command.changes_state() {
             s.audit.record(
                 &origin,

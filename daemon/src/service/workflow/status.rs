@@ -60,6 +60,7 @@ impl ServiceCore {
             tare_samples: tare,
             weaker_than_configuration,
             monitor,
+            ros2_unauthenticated_commands: self.config.ros2_unauthenticated_commands(),
             unknown_payload: self.unknown_payload_status(),
         }
     }

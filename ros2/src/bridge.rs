@@ -5,16 +5,17 @@ use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use fri_api::results::Event;
 use fri_ros_msgs::geometry_msgs::{Inertia, InertiaStamped};
 use fri_ros_msgs::std_msgs;
-use futures::StreamExt;
 
+use crate::access::{Access, Authentication};
+use crate::commands::{Call, Commands};
 use crate::config::{BridgeConfig, JOINTS};
 use crate::dds::{DdsError, Publishers, Ros};
-use crate::diagnostics::Stats;
+use crate::diagnostics::{CommandAccess, Stats};
 use crate::ipc::{Decimator, Input};
 use crate::operator::Operator;
+use crate::srv::{SetBoolRequest, TriggerRequest};
 
 /// Errors that end the bridge.
 #[derive(Debug, thiserror::Error)]
@@ -116,16 +117,43 @@ pub fn check_apply_payload(m: &Inertia) -> Result<(f64, [f64; 3]), String> {
     Ok((m.m, com))
 }
 
+/// Logs who may command: nobody (INFO), authenticated participants (INFO), or anyone (WARN).
+fn log_access(access: &Access) {
+    let names: Vec<&str> = access.commands.iter().map(|c| c.as_str()).collect();
+    match &access.authentication {
+        Authentication::ReadOnly => {
+            tracing::info!("read-only: no command enabled (ros2.commands)");
+        }
+        Authentication::Enclave(dir) => tracing::info!(
+            commands = ?names,
+            enclave = %dir.display(),
+            allow_disarm = access.allow_disarm,
+            "commands for participants authenticated by DDS Security"
+        ),
+        Authentication::Unauthenticated => tracing::warn!(
+            commands = ?names,
+            allow_disarm = access.allow_disarm,
+            "UNAUTHENTICATED commands: ANY DDS participant on the domain may call them \
+             (ros2.allow_unauthenticated_commands = true)"
+        ),
+    }
+}
+
 /// Runs the bridge until `shutdown` completes.
 pub async fn run(
     config: BridgeConfig,
     shutdown: impl std::future::Future<Output = ()>,
 ) -> Result<(), BridgeError> {
+    // Requests issued before this instant are never executed (a transient-local request
+    // written while the bridge was down, a replay).
+    let started_ns = crate::replay::now_ns();
+    log_access(&config.access);
     let Ros {
         mut node,
         publishers,
         servers,
         context,
+        sockets_bound_to,
     } = Ros::new(&config)?;
     let publishers = Arc::new(publishers);
     publishers.robot_description.publish(std_msgs::String {
@@ -155,79 +183,43 @@ pub async fn run(
         }
         Err(e) => tracing::warn!("ROS 2 node spinner: {e:?}"),
     }
-    for (trigger, server) in servers.triggers {
-        let operator = operator.clone();
-        let publishers = publishers.clone();
-        tasks.spawn(async move {
-            let server = Arc::new(server);
-            loop {
-                let (id, _) = match server.async_receive_request().await {
-                    Ok(r) => r,
-                    Err(e) => {
-                        tracing::warn!(service = trigger.service_name(), "request: {e:?}");
-                        continue;
-                    }
-                };
-                // Each call runs on its own task: a `stop` must not wait for a running `tare`.
-                let server = server.clone();
-                let operator = operator.clone();
-                let publishers = publishers.clone();
-                tokio::spawn(async move {
-                    tracing::info!(service = trigger.service_name(), "called");
-                    let response = operator
-                        .trigger(trigger, |e: &Event| {
-                            if let Ok(data) = serde_json::to_string(e) {
-                                publishers.progress.publish(std_msgs::String { data });
-                            }
-                        })
-                        .await;
-                    if let Err(e) = server.async_send_response(id, response).await {
-                        tracing::warn!(service = trigger.service_name(), "response: {e:?}");
-                    }
-                });
-            }
-        });
+    let commands = Commands::new(
+        operator.clone(),
+        config.access.clone(),
+        stats.clone(),
+        publishers.clone(),
+        started_ns,
+    );
+    for (trigger, service) in servers.triggers {
+        tasks.spawn(commands.clone().serve(
+            trigger.service_name(),
+            service,
+            move |_: &TriggerRequest| Call::Trigger(trigger),
+        ));
     }
-    {
-        let operator = operator.clone();
-        let server = servers.collision_arm;
-        tasks.spawn(async move {
-            loop {
-                match server.async_receive_request().await {
-                    Ok((id, req)) => {
-                        let response = operator.collision_arm(req.data).await;
-                        if let Err(e) = server.async_send_response(id, response).await {
-                            tracing::warn!(service = "collision_arm", "response: {e:?}");
-                        }
-                    }
-                    Err(e) => tracing::warn!(service = "collision_arm", "request: {e:?}"),
-                }
-            }
-        });
+    if let Some(service) = servers.collision_arm {
+        tasks.spawn(
+            commands
+                .clone()
+                .serve("collision_arm", service, |r: &SetBoolRequest| {
+                    Call::Arm(r.data)
+                }),
+        );
     }
-    {
-        let operator = operator.clone();
-        let subscription = servers.apply_payload;
-        tasks.spawn(async move {
-            let mut stream = std::pin::pin!(subscription.async_stream());
-            while let Some(m) = stream.next().await {
-                let m = match m {
-                    Ok((m, _info)) => m,
-                    Err(e) => {
-                        tracing::warn!("apply_payload: {e:?}");
-                        continue;
-                    }
-                };
-                match check_apply_payload(&m) {
-                    Err(reason) => tracing::warn!("apply_payload refused: {reason}"),
-                    Ok((mass, com)) => match operator.apply_payload(mass, com).await {
-                        Ok(_) => tracing::info!(mass, ?com, "apply_payload: applied"),
-                        Err(e) => tracing::warn!("apply_payload refused by the service: {e}"),
-                    },
-                }
-            }
-        });
+    if let Some(subscription) = servers.apply_payload {
+        tasks.spawn(commands.clone().apply_payload(subscription));
     }
+    let access = CommandAccess {
+        commands: config
+            .access
+            .commands
+            .iter()
+            .map(|c| c.as_str().to_owned())
+            .collect(),
+        unauthenticated: config.access.unauthenticated(),
+        secured: matches!(config.access.authentication, Authentication::Enclave(_)),
+        sockets_bound_to,
+    };
     {
         let operator = operator.clone();
         let publishers = publishers.clone();
@@ -250,7 +242,7 @@ pub async fn run(
                     );
                     publish_payload(&publishers, &last_payload, p);
                 }
-                let report = crate::diagnostics::report(&prefix, &status, &stats);
+                let report = crate::diagnostics::report(&prefix, &status, &stats, &access);
                 publishers.diagnostics_ns.publish(report.clone());
                 publishers.diagnostics.publish(report);
             }

@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use fri_service::config::{Config as ServiceConfig, ConfigError};
 use serde::{Deserialize, Serialize};
 
+use crate::access::{Access, AccessKeys};
 use crate::description::RobotDescription;
 
 /// The joints of the LWR 4+.
@@ -66,6 +67,24 @@ pub struct Ros2Config {
     /// Frame of the payload's centre of mass on `<ns>/payload` (default `lwr_dh_frame_7`, the
     /// paper's frame 7, which the built-in description adds to the model).
     pub payload_frame: String,
+    /// Commands served, by name (default none: the bridge is read-only); see
+    /// [`crate::access::CommandName`].
+    pub commands: Vec<String>,
+    /// `collision_arm` with `false` may disarm the monitor (default false: it only arms).
+    pub allow_disarm: bool,
+    /// `resume` may be enabled (default false).
+    pub allow_resume: bool,
+    /// `tare` and `estimate_payload`, which move the arm, may be enabled (default false).
+    pub allow_motion: bool,
+    /// SROS2 enclave directory (six files) for DDS Security (default none).
+    pub security_enclave: Option<PathBuf>,
+    /// Serve the enabled commands to ANY participant on the domain, without DDS Security
+    /// (default false).
+    pub allow_unauthenticated_commands: bool,
+    /// Requests older than this are ignored, s (default 5; 0.1 to 60).
+    pub request_max_age_s: f64,
+    /// Commands in flight toward the service at once, and again for `stop` (default 8; 1 to 64).
+    pub max_requests_in_flight: usize,
 }
 
 impl Default for Ros2Config {
@@ -80,6 +99,14 @@ impl Default for Ros2Config {
             service_mapping: ServiceMappingKind::Enhanced,
             robot_description: None,
             payload_frame: crate::description::DH_FRAME_7.to_owned(),
+            commands: Vec::new(),
+            allow_disarm: false,
+            allow_resume: false,
+            allow_motion: false,
+            security_enclave: None,
+            allow_unauthenticated_commands: false,
+            request_max_age_s: 5.0,
+            max_requests_in_flight: 8,
         }
     }
 }
@@ -99,6 +126,10 @@ pub struct BridgeConfig {
     pub description: RobotDescription,
     /// IP addresses DDS is restricted to (empty: every interface).
     pub addresses: Vec<IpAddr>,
+    /// The interface DDS is restricted to, by name (`None`: every interface).
+    pub interface: Option<String>,
+    /// Who may command, and how requests are bounded.
+    pub access: Access,
 }
 
 impl BridgeConfig {
@@ -167,11 +198,24 @@ impl BridgeConfig {
                 "ros2.robot_description"
             },
         )?;
-        let addresses = match &ros2.interface {
-            Some(i) => crate::interface::addresses(i)
-                .map_err(|e| invalid("ros2.interface", e.to_string()))?,
-            None => Vec::new(),
+        let (interface, addresses) = match &ros2.interface {
+            Some(i) => {
+                let (name, addresses) = crate::interface::resolve(i)
+                    .map_err(|e| invalid("ros2.interface", e.to_string()))?;
+                (Some(name), addresses)
+            }
+            None => (None, Vec::new()),
         };
+        let access = crate::access::validate(AccessKeys {
+            commands: &ros2.commands,
+            allow_disarm: ros2.allow_disarm,
+            allow_resume: ros2.allow_resume,
+            allow_motion: ros2.allow_motion,
+            security_enclave: ros2.security_enclave.as_deref(),
+            allow_unauthenticated_commands: ros2.allow_unauthenticated_commands,
+            request_max_age_s: ros2.request_max_age_s,
+            max_requests_in_flight: ros2.max_requests_in_flight,
+        })?;
         Ok(Self {
             service,
             ros2,
@@ -179,6 +223,8 @@ impl BridgeConfig {
             joint_states_every,
             description,
             addresses,
+            interface,
+            access,
         })
     }
 

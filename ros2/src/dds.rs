@@ -10,14 +10,18 @@ use fri_ros_msgs::sensor_msgs::JointState;
 use fri_ros_msgs::std_msgs;
 use fri_ros_msgs::{MessageType, RosMessage};
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
+use ros2_client::dds::rustdds::DomainParticipantSecurityConfigFiles;
 use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::{
-    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, QosProfile, Server,
-    ServiceMapping, ServiceTypeName, Subscription,
+    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, QosProfile,
+    Subscription,
 };
 use serde::Serialize;
 
-use crate::config::{BridgeConfig, ServiceMappingKind};
+use crate::access::{Authentication, CommandName};
+use crate::config::BridgeConfig;
+use crate::operator::Trigger;
+use crate::rpc::Service;
 use crate::srv::{SetBoolRequest, SetBoolResponse, TriggerRequest, TriggerResponse};
 
 /// Errors setting up DDS.
@@ -42,6 +46,10 @@ fn create(what: impl Into<String>) -> impl FnOnce(String) -> DdsError {
 pub const NODE_NAME: &str = "fri_ros2";
 /// Depth of the volatile topics' history (a reliable reader that lags gets the newest ones).
 const DEPTH: usize = 10;
+/// Depth of the request readers and reply writers: a burst of this many requests is read and
+/// answered (`busy` beyond the commands in flight) before the reader overwrites any; what is
+/// lost beyond it shows as a gap in the writer's sequence numbers and is counted.
+pub const REQUEST_DEPTH: usize = 4096;
 
 /// Reliable, volatile, keep-last [`DEPTH`]: the ROS 2 default, which `robot_state_publisher`
 /// and RViz subscribe with (a best-effort reader matches it too).
@@ -110,18 +118,18 @@ pub struct Publishers {
     pub progress: Out<std_msgs::String>,
 }
 
-/// The servers of the bridge's ROS services.
+/// The servers of the enabled commands (none by default: the bridge is read-only).
 pub struct Servers {
-    /// `<ns>/tare`, `<ns>/estimate_payload`, `<ns>/expect_payload`, `<ns>/stop`,
-    /// `<ns>/resume`.
+    /// The enabled `std_srvs/Trigger` services among `<ns>/tare`, `<ns>/estimate_payload`,
+    /// `<ns>/expect_payload`, `<ns>/stop`, `<ns>/resume`.
     pub triggers: Vec<(
         crate::operator::Trigger,
-        Server<TriggerRequest, TriggerResponse>,
+        Service<TriggerRequest, TriggerResponse>,
     )>,
-    /// `<ns>/collision_arm`.
-    pub collision_arm: Server<SetBoolRequest, SetBoolResponse>,
-    /// `<ns>/apply_payload`.
-    pub apply_payload: Subscription<Inertia>,
+    /// `<ns>/collision_arm`, when enabled.
+    pub collision_arm: Option<Service<SetBoolRequest, SetBoolResponse>>,
+    /// `<ns>/apply_payload`, when enabled.
+    pub apply_payload: Option<Subscription<Inertia>>,
 }
 
 /// The participant and the node with every endpoint.
@@ -134,6 +142,8 @@ pub struct Ros {
     pub servers: Servers,
     /// The DDS context (dropped last).
     pub context: Context,
+    /// The device the participant's sockets are bound to (`None`: every interface).
+    pub sockets_bound_to: Option<String>,
 }
 
 /// A name `base` in `namespace` (`/` for the global ones).
@@ -152,9 +162,36 @@ impl Ros {
         if !config.addresses.is_empty() {
             builder = builder.with_only_networks(config.addresses.iter().copied());
         }
+        if let Authentication::Enclave(dir) = &config.access.authentication {
+            // SROS2 writes unencrypted private keys: no password.
+            builder = builder.builtin_security(
+                DomainParticipantSecurityConfigFiles::with_ros_default_names(dir, String::new()),
+            );
+        }
+        let pin = config
+            .interface
+            .as_deref()
+            .filter(|i| crate::sockets::is_loopback(i));
+        let before = match pin {
+            Some(_) => crate::sockets::udp_sockets()
+                .map_err(|e| create("list of UDP sockets")(e.to_string()))?,
+            None => Default::default(),
+        };
         let participant = builder
             .build()
             .map_err(|e| create("DDS participant")(e.to_string()))?;
+        let sockets_bound_to = match pin {
+            Some(interface) => {
+                let after = crate::sockets::udp_sockets()
+                    .map_err(|e| create("list of UDP sockets")(e.to_string()))?;
+                let n = crate::sockets::pin_new(&before, &after, interface).map_err(|e| {
+                    create(format!("binding the DDS sockets to {interface}"))(e.to_string())
+                })?;
+                tracing::info!(sockets = n, %interface, "DDS sockets bound to the interface");
+                Some(interface.to_owned())
+            }
+            None => None,
+        };
         let context = Context::from_domain_participant(participant)
             .map_err(|e| create("ROS 2 context")(e.to_string()))?;
         let ns = config.ros2.namespace.as_str();
@@ -192,61 +229,92 @@ impl Ros {
             )?,
             progress: out::<std_msgs::String>(&mut node, ns, "progress", stream_qos())?,
         };
-        let mapping = match config.ros2.service_mapping {
-            ServiceMappingKind::Enhanced => ServiceMapping::Enhanced,
-            ServiceMappingKind::Cyclone => ServiceMapping::Cyclone,
-            ServiceMappingKind::Basic => ServiceMapping::Basic,
-        };
-        let service_qos = stream_qos();
-        let mut triggers = Vec::new();
-        for t in [
-            crate::operator::Trigger::Tare,
-            crate::operator::Trigger::EstimatePayload,
-            crate::operator::Trigger::ExpectPayload,
-            crate::operator::Trigger::Stop,
-            crate::operator::Trigger::Resume,
-        ] {
-            let server = node
-                .create_server::<TriggerRequest, TriggerResponse>(
-                    mapping,
-                    &name(ns, t.service_name())?,
-                    &ServiceTypeName::new("std_srvs", "Trigger"),
-                    service_qos.clone(),
-                    service_qos.clone(),
-                )
-                .map_err(|e| create(format!("service {ns}/{}", t.service_name()))(e.to_string()))?;
-            triggers.push((t, server));
-        }
-        let collision_arm = node
-            .create_server::<SetBoolRequest, SetBoolResponse>(
-                mapping,
-                &name(ns, "collision_arm")?,
-                &ServiceTypeName::new("std_srvs", "SetBool"),
-                service_qos.clone(),
-                service_qos.clone(),
-            )
-            .map_err(|e| create(format!("service {ns}/collision_arm"))(e.to_string()))?;
-        let topic = node
-            .create_topic(
-                &name(ns, "apply_payload")?,
-                type_name(Inertia::TYPE),
-                &stream_qos(),
-            )
-            .map_err(|e| create(format!("topic {ns}/apply_payload"))(e.to_string()))?;
-        let apply_payload = node
-            .create_subscription::<Inertia>(&topic, None)
-            .map_err(|e| create(format!("subscription {ns}/apply_payload"))(e.to_string()))?;
+        let servers = servers(config, &context, &mut node)?;
         Ok(Self {
             node,
             publishers,
-            servers: Servers {
-                triggers,
-                collision_arm,
-                apply_payload,
-            },
+            servers,
             context,
+            sockets_bound_to,
         })
     }
+}
+
+/// Reliable, volatile (a request is never delivered to a reader that was not there when it was
+/// written), keep-last [`REQUEST_DEPTH`]: the services' requests and replies.
+pub fn request_qos() -> QosProfile {
+    QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::DEFAULT)
+        .durability(Durability::Volatile)
+        .history(History::KeepLast {
+            depth: REQUEST_DEPTH,
+        })
+}
+
+/// The servers of the enabled commands, and nothing for the others.
+fn servers(config: &BridgeConfig, context: &Context, node: &mut Node) -> Result<Servers, DdsError> {
+    let ns = config.ros2.namespace.as_str();
+    let node_name =
+        NodeName::new(ns, NODE_NAME).map_err(|e| create("node name")(format!("{e:?}")))?;
+    let qos = request_qos();
+    let access = &config.access;
+    let mut triggers = Vec::new();
+    for t in [
+        Trigger::Tare,
+        Trigger::EstimatePayload,
+        Trigger::ExpectPayload,
+        Trigger::Stop,
+        Trigger::Resume,
+    ] {
+        if !access.enabled(t.command()) {
+            continue;
+        }
+        let server = crate::rpc::serve(
+            context,
+            node,
+            &node_name,
+            config.ros2.service_mapping,
+            ns,
+            t.service_name(),
+            ("std_srvs", "Trigger"),
+            &qos,
+        )
+        .map_err(create(format!("service {ns}/{}", t.service_name())))?;
+        triggers.push((t, server));
+    }
+    let collision_arm = if access.enabled(CommandName::CollisionArm) {
+        Some(
+            crate::rpc::serve(
+                context,
+                node,
+                &node_name,
+                config.ros2.service_mapping,
+                ns,
+                "collision_arm",
+                ("std_srvs", "SetBool"),
+                &qos,
+            )
+            .map_err(create(format!("service {ns}/collision_arm")))?,
+        )
+    } else {
+        None
+    };
+    let apply_payload = if access.enabled(CommandName::ApplyPayload) {
+        let topic = node
+            .create_topic(&name(ns, "apply_payload")?, type_name(Inertia::TYPE), &qos)
+            .map_err(|e| create(format!("topic {ns}/apply_payload"))(e.to_string()))?;
+        Some(
+            node.create_subscription::<Inertia>(&topic, None)
+                .map_err(|e| create(format!("subscription {ns}/apply_payload"))(e.to_string()))?,
+        )
+    } else {
+        None
+    };
+    Ok(Servers {
+        triggers,
+        collision_arm,
+        apply_payload,
+    })
 }
 
 /// A topic `namespace`/`base` of `M` and its publisher.

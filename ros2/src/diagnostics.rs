@@ -26,6 +26,75 @@ pub struct Stats {
     pub last_cycle: AtomicU64,
     /// Times the iceoryx2 subscriptions were (re)opened.
     pub opened: AtomicU64,
+    /// Command requests received (services and `apply_payload`).
+    pub requests: AtomicU64,
+    /// Replies sent (results, refusals and `busy`).
+    pub answered: AtomicU64,
+    /// Requests answered `busy` (too many commands in flight).
+    pub busy: AtomicU64,
+    /// Requests ignored as replays, too old, issued before the start or without a timestamp.
+    pub ignored: AtomicU64,
+    /// Requests neither answered nor executed: ignored, undecodable, lost before the bridge read
+    /// them (gaps in a writer's sequence numbers) or whose reply could not be sent.
+    pub dropped: AtomicU64,
+    /// Commands forwarded to the service.
+    pub executed: AtomicU64,
+    /// Commands the bridge refused itself (disarm not enabled, invalid payload).
+    pub refused: AtomicU64,
+}
+
+/// What the diagnostics say of who may command.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CommandAccess {
+    /// The enabled commands (`ros2.commands`).
+    pub commands: Vec<String>,
+    /// `ros2.allow_unauthenticated_commands` is in force.
+    pub unauthenticated: bool,
+    /// DDS Security is on (an enclave).
+    pub secured: bool,
+    /// The device the DDS sockets are bound to (`None`: every interface).
+    pub sockets_bound_to: Option<String>,
+}
+
+fn access_status(name: String, a: &CommandAccess, stats: &Stats) -> DiagnosticStatus {
+    let (level, message) = if a.commands.is_empty() {
+        (OK, "read-only: no command enabled".to_owned())
+    } else if a.unauthenticated {
+        (
+            WARN,
+            "UNAUTHENTICATED commands: any DDS participant on the domain may call them \
+             (ros2.allow_unauthenticated_commands)"
+                .to_owned(),
+        )
+    } else {
+        (
+            OK,
+            "commands for DDS Security-authenticated participants".to_owned(),
+        )
+    };
+    let load = |a: &AtomicU64| a.load(Ordering::Relaxed);
+    DiagnosticStatus {
+        level,
+        name,
+        message,
+        hardware_id: HARDWARE_ID.into(),
+        values: vec![
+            KeyValue::new("commands", a.commands.join(", ")),
+            KeyValue::new("unauthenticated commands", a.unauthenticated),
+            KeyValue::new("DDS Security", a.secured),
+            KeyValue::new(
+                "sockets bound to",
+                a.sockets_bound_to.as_deref().unwrap_or("every interface"),
+            ),
+            KeyValue::new("requests", load(&stats.requests)),
+            KeyValue::new("answered", load(&stats.answered)),
+            KeyValue::new("busy", load(&stats.busy)),
+            KeyValue::new("executed", load(&stats.executed)),
+            KeyValue::new("refused", load(&stats.refused)),
+            KeyValue::new("ignored requests", load(&stats.ignored)),
+            KeyValue::new("dropped_requests", load(&stats.dropped)),
+        ],
+    }
 }
 
 /// The components' statuses; `status` is the service's answer (or why there is none).
@@ -33,6 +102,7 @@ pub fn report(
     prefix: &str,
     status: &Result<StatusResult, String>,
     stats: &Stats,
+    access: &CommandAccess,
 ) -> DiagnosticArray {
     let name = |c: &str| format!("{prefix}: {c}");
     let mut out = Vec::new();
@@ -63,6 +133,7 @@ pub fn report(
             KeyValue::new("iceoryx2 (re)opened", load(&stats.opened)),
         ],
     });
+    out.push(access_status(name("ROS 2 commands"), access, stats));
     let time_s = status.as_ref().ok().and_then(|s| s.time_s).unwrap_or(0.0);
     DiagnosticArray {
         header: Header {
@@ -164,8 +235,28 @@ mod tests {
     fn an_unreachable_service_is_an_error_status_next_to_the_bridge_counters() {
         let stats = Stats::default();
         stats.states.store(5, Ordering::Relaxed);
-        let a = report("lwr", &Err("connection refused".into()), &stats);
-        assert_eq!(a.status.len(), 2);
+        let access = CommandAccess {
+            commands: vec!["stop".into()],
+            unauthenticated: true,
+            secured: false,
+            sockets_bound_to: Some("lo".into()),
+        };
+        stats.dropped.store(3, Ordering::Relaxed);
+        let a = report("lwr", &Err("connection refused".into()), &stats, &access);
+        assert_eq!(a.status.len(), 3);
+        // Unauthenticated commands: a WARN for as long as they are served.
+        assert_eq!(a.status[2].level, WARN);
+        assert!(a.status[2].message.contains("UNAUTHENTICATED"));
+        assert!(
+            a.status[2]
+                .values
+                .contains(&KeyValue::new("unauthenticated commands", true))
+        );
+        assert!(
+            a.status[2]
+                .values
+                .contains(&KeyValue::new("dropped_requests", 3))
+        );
         assert_eq!(a.status[0].level, ERROR);
         assert!(a.status[0].message.contains("connection refused"));
         assert_eq!(a.status[1].name, "lwr: ROS 2 bridge");

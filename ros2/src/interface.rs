@@ -21,6 +21,12 @@ pub enum InterfaceError {
 /// The IP addresses of the interface named `name`, or `name` itself when it is an address of
 /// one of the interfaces.
 pub fn addresses(name: &str) -> Result<Vec<IpAddr>, InterfaceError> {
+    resolve(name).map(|(_, a)| a)
+}
+
+/// The interface's name and the addresses DDS uses: every address of the interface named
+/// `name`, or `name` alone when it is one interface's address.
+pub fn resolve(name: &str) -> Result<(String, Vec<IpAddr>), InterfaceError> {
     let interfaces = netdev::get_interfaces();
     let of = |i: &netdev::Interface| -> Vec<IpAddr> {
         i.ipv4
@@ -30,15 +36,15 @@ pub fn addresses(name: &str) -> Result<Vec<IpAddr>, InterfaceError> {
             .collect()
     };
     if let Ok(ip) = name.parse::<IpAddr>() {
-        if interfaces.iter().any(|i| of(i).contains(&ip)) {
-            return Ok(vec![ip]);
+        if let Some(i) = interfaces.iter().find(|i| of(i).contains(&ip)) {
+            return Ok((i.name.clone(), vec![ip]));
         }
     } else if let Some(i) = interfaces.iter().find(|i| i.name == name) {
         let addrs = of(i);
         if addrs.is_empty() {
             return Err(InterfaceError::NoAddress(name.to_owned()));
         }
-        return Ok(addrs);
+        return Ok((i.name.clone(), addrs));
     }
     Err(InterfaceError::Unknown {
         name: name.to_owned(),
@@ -65,5 +71,6 @@ mod tests {
         let e = addresses("no-such-if0").unwrap_err().to_string();
         assert!(e.contains("no-such-if0") && e.contains("lo"), "{e}");
         assert!(addresses("192.0.2.77").is_err());
+        assert_eq!(resolve("127.0.0.1").unwrap().0, "lo");
     }
 }

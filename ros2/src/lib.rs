@@ -4,7 +4,9 @@
 //! service calls into operator commands on the service's socket. Topics, types, QoS and rates
 //! are in `docs/ros2.md`.
 
+pub mod access;
 pub mod bridge;
+pub mod commands;
 pub mod config;
 pub mod dds;
 pub mod description;
@@ -12,6 +14,9 @@ pub mod diagnostics;
 pub mod interface;
 pub mod ipc;
 pub mod operator;
+pub mod replay;
+pub mod rpc;
+pub mod sockets;
 pub mod srv;
 
 pub use bridge::{BridgeError, run};

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use fri_api::client::Client;
-use fri_api::protocol::{CollisionAction, Command};
+use fri_api::protocol::{CollisionAction, Command, Ros2Caller};
 use fri_api::results::{
     CollisionResult, EstimateResult, Event, ExpectPayloadResult, PayloadResult, ResumeResult,
     StatusResult, StopResult, TareResult,
@@ -31,6 +31,18 @@ pub enum Trigger {
 }
 
 impl Trigger {
+    /// The `ros2.commands` name that enables it.
+    pub fn command(self) -> crate::access::CommandName {
+        use crate::access::CommandName;
+        match self {
+            Self::Tare => CommandName::Tare,
+            Self::EstimatePayload => CommandName::EstimatePayload,
+            Self::ExpectPayload => CommandName::ExpectPayload,
+            Self::Stop => CommandName::Stop,
+            Self::Resume => CommandName::Resume,
+        }
+    }
+
     /// The ROS service name (in the bridge's namespace).
     pub fn service_name(self) -> &'static str {
         match self {
@@ -55,18 +67,20 @@ impl Operator {
         Self { socket }
     }
 
-    /// Sends `command` and returns its typed result, or the error as text (connection,
-    /// protocol or the service's refusal with its code).
+    /// Sends `command` on behalf of `caller` (`None`: the bridge's own request) and returns its
+    /// typed result, or the error as text (connection, protocol or the service's refusal with
+    /// its code).
     pub async fn call<R: DeserializeOwned>(
         &self,
         command: Command,
+        caller: Option<Ros2Caller>,
         mut on_event: impl FnMut(&Event),
     ) -> Result<R, String> {
         let mut client = Client::connect(&self.socket)
             .await
             .map_err(|e| format!("service at {}: {e}", self.socket.display()))?;
         match client
-            .call_typed::<R>(command, |e| {
+            .call_typed_for::<R>(caller, command, |e| {
                 if let Ok(e) = e {
                     on_event(&e);
                 }
@@ -81,11 +95,17 @@ impl Operator {
 
     /// `status`.
     pub async fn status(&self) -> Result<StatusResult, String> {
-        self.call(Command::Status, |_| {}).await
+        self.call(Command::Status, None, |_| {}).await
     }
 
-    /// Runs `trigger`; the response carries the result as JSON or the error.
-    pub async fn trigger(&self, trigger: Trigger, on_event: impl FnMut(&Event)) -> TriggerResponse {
+    /// Runs `trigger` for `caller`; the response carries the result as JSON or the error.
+    pub async fn trigger(
+        &self,
+        trigger: Trigger,
+        caller: Ros2Caller,
+        on_event: impl FnMut(&Event),
+    ) -> TriggerResponse {
+        let caller = Some(caller);
         match trigger {
             Trigger::Tare => {
                 let cmd = Command::Tare {
@@ -94,7 +114,7 @@ impl Operator {
                     step_deg: None,
                     pattern: None,
                 };
-                respond(self.call::<TareResult>(cmd, on_event).await)
+                respond(self.call::<TareResult>(cmd, caller, on_event).await)
             }
             Trigger::EstimatePayload => {
                 let cmd = Command::EstimatePayload {
@@ -105,7 +125,7 @@ impl Operator {
                     use_tare: None,
                     apply: Some(true),
                 };
-                respond(self.call::<EstimateResult>(cmd, on_event).await)
+                respond(self.call::<EstimateResult>(cmd, caller, on_event).await)
             }
             Trigger::ExpectPayload => {
                 let cmd = Command::ExpectPayload {
@@ -113,11 +133,19 @@ impl Operator {
                     max_radius: None,
                     end: None,
                 };
-                respond(self.call::<ExpectPayloadResult>(cmd, on_event).await)
+                respond(
+                    self.call::<ExpectPayloadResult>(cmd, caller, on_event)
+                        .await,
+                )
             }
-            Trigger::Stop => respond(self.call::<StopResult>(Command::Stop, on_event).await),
+            Trigger::Stop => respond(
+                self.call::<StopResult>(Command::Stop, caller, on_event)
+                    .await,
+            ),
             Trigger::Resume => {
-                let r = self.call::<ResumeResult>(Command::Resume, on_event).await;
+                let r = self
+                    .call::<ResumeResult>(Command::Resume, caller, on_event)
+                    .await;
                 // Still held (a contact still detected, or a new stop): not a success.
                 let held = r.as_ref().is_ok_and(|r| r.stopped);
                 let mut response = respond(r);
@@ -127,8 +155,8 @@ impl Operator {
         }
     }
 
-    /// Arms (`true`) or disarms the collision monitor.
-    pub async fn collision_arm(&self, arm: bool) -> TriggerResponse {
+    /// Arms (`true`) or disarms the collision monitor for `caller`.
+    pub async fn collision_arm(&self, arm: bool, caller: Ros2Caller) -> TriggerResponse {
         let cmd = Command::Collision {
             action: if arm {
                 CollisionAction::Arm
@@ -140,16 +168,26 @@ impl Operator {
             reaction: None,
             pause_s: None,
         };
-        respond(self.call::<CollisionResult>(cmd, |_| {}).await)
+        respond(
+            self.call::<CollisionResult>(cmd, Some(caller), |_| {})
+                .await,
+        )
     }
 
-    /// Applies a payload of `mass` kg at `com` (m, frame 7).
-    pub async fn apply_payload(&self, mass: f64, com: [f64; 3]) -> Result<PayloadResult, String> {
-        self.call(Command::ApplyPayload { mass, com }, |_| {}).await
+    /// Applies a payload of `mass` kg at `com` (m, frame 7) for `caller`.
+    pub async fn apply_payload(
+        &self,
+        mass: f64,
+        com: [f64; 3],
+        caller: Ros2Caller,
+    ) -> Result<PayloadResult, String> {
+        self.call(Command::ApplyPayload { mass, com }, Some(caller), |_| {})
+            .await
     }
 }
 
-fn respond<R: Serialize>(result: Result<R, String>) -> TriggerResponse {
+/// A response of `result`: its JSON, or the error text.
+pub fn respond<R: Serialize>(result: Result<R, String>) -> TriggerResponse {
     match result {
         Ok(r) => TriggerResponse {
             success: true,

@@ -42,6 +42,7 @@ async fn stop_resume_arm_and_apply_payload_reach_the_service() {
     let dir = tempfile::tempdir().unwrap();
     let mut config = common::service_config(dir.path(), "ros2srv");
     config.observer.armed = true;
+    common::service_accepts_unauthenticated(&mut config);
     let service = fri_service::testkit::InProcess::start(config.clone())
         .await
         .unwrap();
@@ -52,7 +53,19 @@ async fn stop_resume_arm_and_apply_payload_reach_the_service() {
     let robot = common::robot(sim, service.fri, None);
     let mut client = common::wait_connected(&service).await;
     let domain = common::domain(1);
-    let bridge = common::Bridge::start(config, domain, 50);
+    let bridge = common::Bridge::start_with(
+        config,
+        common::unauthenticated(
+            domain,
+            &[
+                "stop",
+                "resume",
+                "collision_arm",
+                "expect_payload",
+                "apply_payload",
+            ],
+        ),
+    );
 
     let participant = DomainParticipantBuilder::new(domain)
         .with_only_networks([std::net::IpAddr::from([127, 0, 0, 1])])
@@ -65,7 +78,7 @@ async fn stop_resume_arm_and_apply_payload_reach_the_service() {
             NodeOptions::new(),
         )
         .unwrap();
-    let qos = fri_ros2::dds::stream_qos();
+    let qos = fri_ros2::dds::request_qos();
     let trigger = |node: &mut ros2_client::Node, name: &str| {
         node.create_client::<TriggerRequest, TriggerResponse>(
             ServiceMapping::Enhanced,

@@ -109,6 +109,11 @@ impl Bridge {
             interface: Some("lo".into()),
             ..Ros2Config::default()
         };
+        Self::start_with(service, ros2)
+    }
+
+    /// The bridge with `ros2` as its `[ros2]` table.
+    pub fn start_with(service: Config, ros2: Ros2Config) -> Self {
         let config = BridgeConfig::new(service, ros2).unwrap();
         let (stop, rx) = oneshot::channel();
         let task = tokio::spawn(fri_ros2::run(config, async {
@@ -208,4 +213,164 @@ pub async fn next_where<M: 'static + serde::de::DeserializeOwned>(
             None => tokio::time::sleep(Duration::from_millis(5)).await,
         }
     }
+}
+
+/// The `[ros2]` table on loopback in `domain_id` with `commands` served to ANY participant
+/// (`allow_unauthenticated_commands`), disarm, resume and motion allowed as the commands need.
+pub fn unauthenticated(domain_id: u16, commands: &[&str]) -> Ros2Config {
+    let has = |c: &str| commands.contains(&c);
+    Ros2Config {
+        domain_id,
+        joint_states_hz: 50,
+        interface: Some("lo".into()),
+        commands: commands.iter().map(|c| (*c).to_owned()).collect(),
+        allow_disarm: has("collision_arm"),
+        allow_resume: has("resume"),
+        allow_motion: has("tare") || has("estimate_payload"),
+        allow_unauthenticated_commands: true,
+        ..Ros2Config::default()
+    }
+}
+
+/// The service's own `[ros2]` table accepting unauthenticated ROS 2 commands.
+pub fn service_accepts_unauthenticated(config: &mut Config) {
+    config.ros2 = Some(toml::from_str("allow_unauthenticated_commands = true").unwrap());
+}
+
+/// CYCLONEDDS_URI pinning a Cyclone peer to loopback.
+pub const CYCLONE_ON_LO: &str = "<CycloneDDS><Domain id=\"any\"><General><Interfaces>\
+     <NetworkInterface name=\"lo\"/></Interfaces></General></Domain></CycloneDDS>";
+
+/// A Python peer printing one JSON object per line.
+pub struct JsonPeer {
+    child: std::process::Child,
+    lines: std::sync::mpsc::Receiver<serde_json::Value>,
+}
+
+impl JsonPeer {
+    /// Runs `ros2/tests/peers/<script>` with `args` on loopback.
+    pub fn start(script: &str, args: &[String]) -> Self {
+        use std::io::BufRead as _;
+        let mut child = Command::new(peers_python())
+            .arg(workspace().join("ros2/tests/peers").join(script))
+            .args(args)
+            .env("CYCLONEDDS_URI", CYCLONE_ON_LO)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::inherit())
+            .spawn()
+            .unwrap();
+        let stdout = child.stdout.take().unwrap();
+        let (tx, lines) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            for line in std::io::BufReader::new(stdout).lines() {
+                let Ok(line) = line else { break };
+                match serde_json::from_str::<serde_json::Value>(&line) {
+                    Ok(v) => {
+                        if tx.send(v).is_err() {
+                            break;
+                        }
+                    }
+                    Err(e) => eprintln!("peer printed a non-JSON line ({e}): {line}"),
+                }
+            }
+        });
+        Self { child, lines }
+    }
+
+    /// The next line with `key`, waiting at most `timeout_s` in all.
+    pub async fn next_with(&self, key: &str, timeout_s: u64) -> serde_json::Value {
+        let deadline = std::time::Instant::now() + Duration::from_secs(timeout_s);
+        loop {
+            let left = deadline.saturating_duration_since(std::time::Instant::now());
+            assert!(
+                !left.is_zero(),
+                "the peer printed no `{key}` in {timeout_s} s"
+            );
+            match self.lines.try_recv() {
+                Ok(v) if v.get(key).is_some() => return v,
+                Ok(_) => {}
+                Err(std::sync::mpsc::TryRecvError::Empty) => {
+                    tokio::time::sleep(Duration::from_millis(20)).await;
+                }
+                Err(e) => panic!("the peer ended before printing `{key}`: {e}"),
+            }
+        }
+    }
+}
+
+impl Drop for JsonPeer {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// A `watch` of the service collecting its audit records.
+pub struct AuditWatch {
+    stop: oneshot::Sender<()>,
+    task: tokio::task::JoinHandle<Vec<fri_api::results::AuditRecord>>,
+}
+
+impl AuditWatch {
+    /// Starts a `watch` on `c`; returns once it is live.
+    pub async fn start(mut c: Client) -> Self {
+        use fri_api::results::Event;
+        let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
+        let (live_tx, live_rx) = oneshot::channel();
+        let watcher = tokio::spawn(async move {
+            let mut live = Some(live_tx);
+            let _ = c
+                .call_typed::<serde_json::Value>(
+                    fri_api::protocol::Command::Watch { state_every: None },
+                    |e| match e {
+                        Ok(Event::Watching(_)) => {
+                            if let Some(l) = live.take() {
+                                let _ = l.send(());
+                            }
+                        }
+                        Ok(Event::Audit(a)) => {
+                            let _ = tx.send(a);
+                        }
+                        _ => {}
+                    },
+                )
+                .await;
+        });
+        live_rx.await.unwrap();
+        let (stop, mut stopped) = oneshot::channel::<()>();
+        let task = tokio::spawn(async move {
+            let mut seen = Vec::new();
+            loop {
+                tokio::select! {
+                    a = rx.recv() => match a {
+                        Some(a) => seen.push(a),
+                        None => break,
+                    },
+                    _ = &mut stopped => break,
+                }
+            }
+            // What was already sent.
+            while let Ok(a) = rx.try_recv() {
+                seen.push(a);
+            }
+            watcher.abort();
+            seen
+        });
+        Self { stop, task }
+    }
+
+    /// The records seen so far (after a short grace for events in flight).
+    pub async fn finish(self) -> Vec<fri_api::results::AuditRecord> {
+        tokio::time::sleep(Duration::from_millis(500)).await;
+        let _ = self.stop.send(());
+        self.task.await.unwrap()
+    }
+}
+
+/// The service's status.
+pub async fn status(c: &mut Client) -> fri_api::results::StatusResult {
+    c.call_typed::<fri_api::results::StatusResult>(fri_api::protocol::Command::Status, |_| {})
+        .await
+        .unwrap()
+        .unwrap()
 }

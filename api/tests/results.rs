@@ -74,6 +74,7 @@ fn status_connected_and_disconnected() {
         "monitor": {"armed": true, "thresholds": ([6.0; 7]), "gains": ([400.0; 7]),
                     "reaction": "stop", "pause_s": 2.0, "persisted": false,
                     "set_for_payload": null, "payload_changed": false},
+        "ros2_unauthenticated_commands": true,
         "state": {"kind": "commanding"},
         "unknown_payload": null,
     });
@@ -84,6 +85,7 @@ fn status_connected_and_disconnected() {
         Some(fri_api::origin::Origin::Ros2 { uid: 1000, .. })
     ));
     assert_eq!(s.payload.unwrap().mass, 1.5);
+    assert!(s.ros2_unauthenticated_commands);
     // Before the first measurement and without an endpoint snapshot.
     let empty = json!({
         "connected": false, "residual_valid": false, "fri": null,
@@ -95,6 +97,7 @@ fn status_connected_and_disconnected() {
         "monitor": {"armed": false, "thresholds": ([6.0; 7]), "gains": ([400.0; 7]),
                     "reaction": "stop", "pause_s": 2.0, "persisted": false,
                     "set_for_payload": null, "payload_changed": false},
+        "ros2_unauthenticated_commands": false,
         "state": null,
         "unknown_payload": null,
     });

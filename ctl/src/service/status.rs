@@ -144,6 +144,13 @@ pub(super) fn print(r: &StatusResult, out: &mut dyn Write) -> io::Result<()> {
         Some(n) => writeln!(out, "tare           {n} samples stored")?,
         None => writeln!(out, "tare           none")?,
     }
+    if r.ros2_unauthenticated_commands {
+        writeln!(
+            out,
+            "ros2           UNAUTHENTICATED commands accepted from any ROS 2 participant \
+             ([ros2] allow_unauthenticated_commands)"
+        )?;
+    }
     super::collision::print_monitor(&r.monitor, out)
 }
 

@@ -22,5 +22,6 @@ pub mod stdio;
 /// Joints of the LWR 4+ (the FRI datagram's joint count).
 pub use fri::wire::JOINTS;
 
-/// Where the daemon listens and clients connect when nothing else is configured.
-pub const DEFAULT_SOCKET: &str = "/tmp/fri-service/operator.sock";
+/// Where the daemon listens and clients connect when nothing else is configured: the service's
+/// run directory (systemd `RuntimeDirectory=fri-service`), outside the world-writable `/tmp`.
+pub const DEFAULT_SOCKET: &str = "/run/fri-service/operator.sock";

@@ -57,23 +57,37 @@ fn run(config: Option<PathBuf>) -> anyhow::Result<()> {
     };
     let rt = runtime()?;
     rt.block_on(async move {
+        // Before the start: a SIGTERM while it starts (or right after) is a shutdown in order,
+        // never the default action that kills the process mid-way.
+        let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
+            .context("installing the SIGTERM handler")?;
+        let mut int = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::interrupt())
+            .context("installing the SIGINT handler")?;
+        // Every start-up failure returns here, before the FRI endpoint answered anything.
         let service = Arc::new(RunningService::start(config)?);
         let (tx, rx) = watch::channel(false);
-        let server = {
+        let mut server = {
             let s = service.clone();
             tokio::spawn(async move { s.serve_operator(rx).await })
         };
-        let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
-            .context("installing the SIGTERM handler")?;
-        tokio::select! {
-            _ = tokio::signal::ctrl_c() => tracing::info!("interrupted; shutting down"),
-            _ = term.recv() => tracing::info!("terminated; shutting down"),
+        let ended = tokio::select! {
+            _ = int.recv() => { tracing::info!("interrupted; shutting down"); None }
+            _ = term.recv() => { tracing::info!("terminated; shutting down"); None }
+            // The operator server ends only on an error: without it there is no `stop`.
+            r = &mut server => Some(r),
+        };
+        let served = match ended {
+            Some(r) => r,
+            None => {
+                let _ = tx.send(true);
+                server.await
+            }
+        };
+        match Arc::try_unwrap(service) {
+            Ok(s) => s.shutdown(),
+            Err(_) => tracing::warn!("the service is still shared at shutdown"),
         }
-        let _ = tx.send(true);
-        server.await.context("operator server task")??;
-        if let Ok(s) = Arc::try_unwrap(service) {
-            s.shutdown();
-        }
+        served.context("operator server task")??;
         Ok(())
     })
 }

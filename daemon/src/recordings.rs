@@ -3,21 +3,22 @@
 //! The service runs as root next to the robot, and any allowed operator may send `record`, so a
 //! request names only a file *in* the configured directory (`state.record_dir`): a plain name of
 //! safe characters, no subdirectories, no `..`, no absolute paths. The directory is opened once
-//! per request (its canonical path resolved, then opened with `O_DIRECTORY | O_NOFOLLOW`) and the
-//! file is created relative to that descriptor with `O_CREAT | O_EXCL | O_NOFOLLOW`: a name that
-//! exists, including a planted symlink, is refused, so a recording never overwrites anything.
+//! per request as a checked directory (`persistence::dir`: owned by the service's user, writable
+//! by nobody else, below trusted parents, and not itself a symbolic link: a `recordings/`
+//! replaced by a link is refused, not followed) and the file is created relative to that
+//! descriptor with `O_CREAT | O_EXCL | O_NOFOLLOW`: a name that exists, including a planted
+//! symlink, is refused, so a recording never overwrites anything.
 
-use std::ffi::CString;
-use std::fs::{File, OpenOptions};
-use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
-use std::os::unix::fs::OpenOptionsExt;
+use std::fs::File;
 use std::path::{Path, PathBuf};
+
+use crate::persistence::dir::{CheckedDir, DirError, Rule};
 
 /// Longest file name, bytes (the usual `NAME_MAX`).
 pub const MAX_NAME_BYTES: usize = 255;
 
 /// Mode of new recordings (before the umask): readable by everyone, they hold no secrets.
-const FILE_MODE: libc::c_uint = 0o644;
+const FILE_MODE: libc::mode_t = 0o644;
 
 /// Errors of the recording directory.
 #[derive(Debug, thiserror::Error)]
@@ -41,16 +42,9 @@ pub enum RecordError {
         /// The full path.
         path: PathBuf,
     },
-    /// The directory cannot be created or opened.
-    #[error("recording directory {dir} (state.record_dir): {action}: {source}")]
-    Directory {
-        /// The configured directory.
-        dir: PathBuf,
-        /// What was being done.
-        action: &'static str,
-        /// Underlying error.
-        source: std::io::Error,
-    },
+    /// The directory cannot be created or opened, or is not trusted.
+    #[error("recording directory: {0}")]
+    Directory(#[from] DirError),
     /// Creating the file failed for another reason (permissions, disk full, ...).
     #[error("cannot create {path}: {source}")]
     Create {
@@ -71,45 +65,28 @@ impl RecordError {
 /// The opened recording directory.
 #[derive(Debug)]
 pub struct RecordDir {
-    path: PathBuf,
-    fd: OwnedFd,
+    dir: CheckedDir,
 }
 
 impl RecordDir {
-    /// Creates `dir` if missing and opens it (its canonical path, without following a symlink
-    /// at the last component).
+    /// Creates `dir` if missing and opens it, checked (see the module documentation).
     pub fn open(dir: &Path) -> Result<Self, RecordError> {
-        let fail = |action| {
-            move |source| RecordError::Directory {
-                dir: dir.to_owned(),
-                action,
-                source,
-            }
-        };
-        std::fs::create_dir_all(dir).map_err(fail("create"))?;
-        let path = dir.canonicalize().map_err(fail("resolve"))?;
-        let file = OpenOptions::new()
-            .read(true)
-            .custom_flags(libc::O_DIRECTORY | libc::O_NOFOLLOW | libc::O_CLOEXEC)
-            .open(&path)
-            .map_err(fail("open"))?;
         Ok(Self {
-            path,
-            fd: file.into(),
+            dir: CheckedDir::open(dir, "state.record_dir", Rule::Owned)?,
         })
     }
 
-    /// The canonical path of the directory.
+    /// The real path of the directory.
     pub fn path(&self) -> &Path {
-        &self.path
+        self.dir.path()
     }
 
     /// Checks `name` and that nothing exists under it yet; returns the full path. (The final
     /// word is [`RecordDir::create`]; this only lets a request fail before it does any work.)
     pub fn check_free(&self, name: &str) -> Result<PathBuf, RecordError> {
         let full = self.checked(name)?;
-        match std::fs::symlink_metadata(&full) {
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(full),
+        match self.dir.entry(name) {
+            Ok(None) => Ok(full),
             _ => Err(RecordError::Exists { path: full }),
         }
     }
@@ -117,31 +94,21 @@ impl RecordDir {
     /// Creates the new file `name` in the directory; returns it and its full path.
     pub fn create(&self, name: &str) -> Result<(File, PathBuf), RecordError> {
         let full = self.checked(name)?;
-        // `checked` allows no NUL byte.
-        let c_name = CString::new(name).map_err(|_| self.invalid(name, "contains a NUL byte"))?;
-        let flags =
-            libc::O_WRONLY | libc::O_CREAT | libc::O_EXCL | libc::O_NOFOLLOW | libc::O_CLOEXEC;
-        // SAFETY: the directory descriptor is open for the lifetime of `self`, `c_name` is a
-        // NUL-terminated string that outlives the call, and openat has no other preconditions.
-        let fd = unsafe { libc::openat(self.fd.as_raw_fd(), c_name.as_ptr(), flags, FILE_MODE) };
-        if fd < 0 {
-            let source = std::io::Error::last_os_error();
+        match self.dir.create_new(name, FILE_MODE) {
+            Ok(file) => Ok((file, full)),
             // EEXIST: a file or a (possibly dangling) symlink; ELOOP: a symlink (O_NOFOLLOW).
-            return Err(match source.raw_os_error() {
-                Some(libc::EEXIST) | Some(libc::ELOOP) => RecordError::Exists { path: full },
-                _ => RecordError::Create { path: full, source },
-            });
+            Err(e) if matches!(e.raw_os_error(), Some(libc::EEXIST | libc::ELOOP)) => {
+                Err(RecordError::Exists { path: full })
+            }
+            Err(source) => Err(RecordError::Create { path: full, source }),
         }
-        // SAFETY: openat just returned this descriptor; nothing else owns it.
-        let file = unsafe { File::from_raw_fd(fd) };
-        Ok((file, full))
     }
 
     fn invalid(&self, name: &str, rule: &'static str) -> RecordError {
         RecordError::InvalidName {
             name: name.to_owned(),
             rule,
-            dir: self.path.clone(),
+            dir: self.dir.path().to_owned(),
         }
     }
 
@@ -167,7 +134,7 @@ impl RecordDir {
         };
         match rule {
             Some(rule) => Err(self.invalid(name, rule)),
-            None => Ok(self.path.join(name)),
+            None => Ok(self.dir.join(name)),
         }
     }
 }
@@ -234,15 +201,32 @@ mod tests {
     }
 
     #[test]
-    fn a_symlinked_directory_is_resolved_once_and_reported_canonically() {
+    fn a_recordings_directory_replaced_by_a_symlink_is_refused_not_followed() {
+        // The attack: `recordings/` replaced by a link made `record` write elsewhere.
         let dir = tempfile::tempdir().unwrap();
-        let real = dir.path().join("real");
-        std::fs::create_dir(&real).unwrap();
-        let link = dir.path().join("link");
-        std::os::unix::fs::symlink(&real, &link).unwrap();
-        let rec = RecordDir::open(&link).unwrap();
-        assert_eq!(rec.path(), real.canonicalize().unwrap());
-        let (_, full) = rec.create("x.csv").unwrap();
-        assert!(real.join("x.csv").exists() && full.starts_with(real.canonicalize().unwrap()));
+        let rec = dir.path().join("state/recordings");
+        RecordDir::open(&rec).unwrap();
+        std::fs::remove_dir(&rec).unwrap();
+        let elsewhere = dir.path().join("elsewhere");
+        std::fs::create_dir(&elsewhere).unwrap();
+        std::os::unix::fs::symlink(&elsewhere, &rec).unwrap();
+        let e = RecordDir::open(&rec).unwrap_err();
+        assert!(!e.is_request_error());
+        let text = e.to_string();
+        assert!(
+            text.contains("state.record_dir") && text.contains("symbolic link"),
+            "{text}"
+        );
+        assert_eq!(std::fs::read_dir(&elsewhere).unwrap().count(), 0);
+    }
+
+    #[test]
+    fn a_recordings_directory_another_user_owns_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let rec = dir.path().join("recordings");
+        std::fs::create_dir(&rec).unwrap();
+        std::os::unix::fs::chown(&rec, Some(65534), Some(65534)).unwrap();
+        let text = RecordDir::open(&rec).unwrap_err().to_string();
+        assert!(text.contains("owned by uid 65534"), "{text}");
     }
 }

@@ -4,9 +4,12 @@
 
 use std::sync::atomic::{AtomicU32, Ordering};
 
+use std::os::unix::fs::PermissionsExt;
+
 use fri_api::ipc::flags;
 use fri_service::ipc::publisher::open_service;
 use fri_service::ipc::{CollisionMessage, IpcNames, PayloadEstimate, Publisher, RobotState};
+use iceoryx2::prelude::ServiceName;
 
 #[global_allocator]
 static A: alloc_counter::CountingAllocator = alloc_counter::CountingAllocator;
@@ -166,7 +169,8 @@ fn loop_side_handoff_does_not_allocate_and_thread_publishes_every_state() {
         });
         assert_eq!(n, 0, "the loop side must not allocate");
         drop(sender);
-        thread.join();
+        // Every state queued before the stop is published first.
+        thread.stop();
         // The subscriber buffer holds the newest 16 (subscriber_max_buffer_size); the last
         // published cycle must be there.
         let mut last = 0;
@@ -174,6 +178,34 @@ fn loop_side_handoff_does_not_allocate_and_thread_publishes_every_state() {
             last = s.payload().cycle;
         }
         assert_eq!(last, 100);
+    }
+    assert_clean(&names);
+}
+
+#[test]
+fn a_service_its_dead_creator_left_unfinished_is_removed_and_created_again() {
+    // A creator killed between creating the service's static configuration and finalising it
+    // leaves the file with mode 0600: iceoryx2 then reports `HangsInCreation` forever, and
+    // its own forced removal does not see it.
+    let names = unique_names();
+    {
+        let config = names.config().unwrap();
+        let name = ServiceName::new(&names.state()).unwrap();
+        let path = fri_service::ipc::recovery::static_config_path(&config, &name);
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(&path, "partial").unwrap();
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o600)).unwrap();
+        let node = names.node().unwrap();
+        let stuck = open_service::<RobotState>(&node, &names.state(), 1).unwrap_err();
+        assert!(stuck.to_string().contains("HangsInCreation"), "{stuck}");
+        let publisher = Publisher::new(&names).unwrap();
+        let sub = open_service::<RobotState>(&node, &names.state(), 1)
+            .unwrap()
+            .subscriber_builder()
+            .create()
+            .unwrap();
+        publisher.publish_state(&RobotState::default()).unwrap();
+        assert!(sub.receive().unwrap().is_some());
     }
     assert_clean(&names);
 }

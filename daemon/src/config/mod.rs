@@ -280,7 +280,7 @@ impl Default for UnknownPayloadConfig {
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct OperatorConfig {
-    /// Unix socket path (default `/tmp/fri-service/operator.sock`).
+    /// Unix socket path (default `/run/fri-service/operator.sock`, [`DEFAULT_SOCKET`]).
     pub socket: PathBuf,
     /// User ids allowed to connect besides root and the service's own user (default none).
     pub allowed_uids: Vec<u32>,
@@ -308,11 +308,35 @@ impl Default for OperatorConfig {
     }
 }
 
+/// The state directory when systemd names none (no `StateDirectory=`).
+pub const DEFAULT_STATE_DIR: &str = "/var/lib/fri-service";
+
+/// The default state directory: systemd's `$STATE_DIRECTORY` (its first entry, when absolute)
+/// when the service runs under `StateDirectory=`, else [`DEFAULT_STATE_DIR`].
+pub fn default_state_dir() -> PathBuf {
+    state_dir_from(std::env::var_os("STATE_DIRECTORY"))
+}
+
+/// [`default_state_dir`] for the value `env` of `STATE_DIRECTORY`.
+fn state_dir_from(env: Option<std::ffi::OsString>) -> PathBuf {
+    use std::os::unix::ffi::OsStrExt;
+    env.and_then(|v| {
+        // systemd joins several directories with `:`; the first is the service's own.
+        let first = v.as_bytes().split(|b| *b == b':').next()?;
+        let path = PathBuf::from(std::ffi::OsStr::from_bytes(first));
+        path.is_absolute().then_some(path)
+    })
+    .unwrap_or_else(|| PathBuf::from(DEFAULT_STATE_DIR))
+}
+
 /// Persistent state settings.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct StateConfig {
-    /// Directory for applied payload, tare and calibration (default `/tmp/fri-service/state`).
+    /// Directory for applied payload, tare, calibration, monitor settings and the instance lock
+    /// (default [`default_state_dir`]: `$STATE_DIRECTORY`, else `/var/lib/fri-service`). It and
+    /// the recording directory must be owned by the service's user and writable by nobody else
+    /// (docs/operator-protocol.md, "Files the service trusts").
     pub dir: PathBuf,
     /// The only directory `record` writes to (default: `recordings` inside `dir`); requests
     /// name a new file in it.
@@ -322,7 +346,7 @@ pub struct StateConfig {
 impl Default for StateConfig {
     fn default() -> Self {
         Self {
-            dir: PathBuf::from("/tmp/fri-service/state"),
+            dir: default_state_dir(),
             record_dir: None,
         }
     }

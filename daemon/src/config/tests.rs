@@ -20,10 +20,8 @@ fn empty_file_gives_documented_defaults() {
     assert_eq!(c.reaction.policy, ReactionMode::Stop);
     assert_eq!(c.estimation.settle_timeout_s, 1.0);
     assert_eq!(c.operator.socket, PathBuf::from(DEFAULT_SOCKET));
-    assert_eq!(
-        c.state.record_dir(),
-        PathBuf::from("/tmp/fri-service/state/recordings")
-    );
+    assert_eq!(c.state.dir, default_state_dir());
+    assert_eq!(c.state.record_dir(), default_state_dir().join("recordings"));
     let c = Config::from_toml("[state]\ndir = \"/var/lib/fri\"\n").unwrap();
     assert_eq!(
         c.state.record_dir(),
@@ -31,6 +29,20 @@ fn empty_file_gives_documented_defaults() {
     );
     let c = Config::from_toml("[state]\nrecord_dir = \"/data/rec\"\n").unwrap();
     assert_eq!(c.state.record_dir(), PathBuf::from("/data/rec"));
+}
+
+#[test]
+fn the_default_state_directory_is_systemds_else_var_lib_never_tmp() {
+    assert_eq!(state_dir_from(None), PathBuf::from("/var/lib/fri-service"));
+    let systemd = |v: &str| state_dir_from(Some(v.into()));
+    assert_eq!(systemd("/var/lib/fri"), PathBuf::from("/var/lib/fri"));
+    assert_eq!(
+        systemd("/var/lib/a:/var/lib/b"),
+        PathBuf::from("/var/lib/a")
+    );
+    assert_eq!(systemd("relative"), PathBuf::from(DEFAULT_STATE_DIR));
+    assert_eq!(systemd(""), PathBuf::from(DEFAULT_STATE_DIR));
+    assert!(!DEFAULT_STATE_DIR.starts_with("/tmp") && !DEFAULT_SOCKET.starts_with("/tmp"));
 }
 
 #[test]

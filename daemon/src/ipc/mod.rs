@@ -1,6 +1,7 @@
 //! iceoryx2 publication of robot state, collision events and payload estimates.
 
 pub mod publisher;
+pub mod recovery;
 pub mod thread;
 
 pub use fri_api::ipc as messages;

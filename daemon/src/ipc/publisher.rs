@@ -2,7 +2,8 @@
 //!
 //! iceoryx2 ports are not `Send`: create the [`Publisher`] on the thread that publishes (the FRI
 //! loop thread) and keep it there. The node is created with signal handling disabled so iceoryx2
-//! never installs handlers that would fight the service's own shutdown handling.
+//! never installs handlers that would fight the service's own shutdown handling. Before it opens
+//! its services the publisher removes what killed predecessors left behind ([`super::recovery`]).
 
 use iceoryx2::port::publisher::Publisher as IoxPublisher;
 use iceoryx2::prelude::*;
@@ -105,17 +106,38 @@ pub fn open_service<T: ZeroCopySend + std::fmt::Debug + 'static>(
     name: &str,
     history: usize,
 ) -> Result<PubSubService<T>, IpcError> {
-    node.service_builder(&service_name(name)?)
+    open_or_create::<T>(node, &service_name(name)?, history).map_err(|e| IpcError::Setup {
+        what: "service",
+        message: format!("{name}: {e:?}"),
+    })
+}
+
+/// Opens (or creates) the service for `T` as the publisher does: when a process that died left
+/// it stuck, removes it and opens it again ([`super::recovery`]).
+pub fn open_service_recovering<T: ZeroCopySend + std::fmt::Debug + 'static>(
+    node: &Node<ipc::Service>,
+    name: &str,
+    history: usize,
+) -> Result<PubSubService<T>, IpcError> {
+    let name = service_name(name)?;
+    super::recovery::open_recovering(node, &name, || open_or_create::<T>(node, &name, history))
+}
+
+fn open_or_create<T: ZeroCopySend + std::fmt::Debug + 'static>(
+    node: &Node<ipc::Service>,
+    name: &ServiceName,
+    history: usize,
+) -> Result<
+    PubSubService<T>,
+    iceoryx2::service::builder::publish_subscribe::PublishSubscribeOpenOrCreateError,
+> {
+    node.service_builder(name)
         .publish_subscribe::<T>()
         .history_size(history)
         .subscriber_max_buffer_size(history.max(16))
         .max_subscribers(16)
         .max_publishers(2)
         .open_or_create()
-        .map_err(|e| IpcError::Setup {
-            what: "service",
-            message: format!("{name}: {e:?}"),
-        })
 }
 
 /// The service's publishers (state, collision, payload) on one node. Not `Send`.
@@ -139,14 +161,18 @@ impl std::fmt::Debug for Publisher {
 }
 
 impl Publisher {
-    /// Creates the node, the three services and their publishers.
+    /// Creates the node, removes dead nodes' and stuck services' resources, and creates the
+    /// three services and their publishers.
     pub fn new(names: &IpcNames) -> Result<Self, IpcError> {
         let node = names.node()?;
+        super::recovery::cleanup_dead_nodes(&node);
         // The state is high-rate: a subscriber only wants the newest; events keep a history so a
         // late subscriber still sees the last ones.
-        let state_service = open_service::<RobotState>(&node, &names.state(), 1)?;
-        let collision_service = open_service::<CollisionMessage>(&node, &names.collision(), 16)?;
-        let payload_service = open_service::<PayloadEstimate>(&node, &names.payload(), 4)?;
+        let state_service = open_service_recovering::<RobotState>(&node, &names.state(), 1)?;
+        let collision_service =
+            open_service_recovering::<CollisionMessage>(&node, &names.collision(), 16)?;
+        let payload_service =
+            open_service_recovering::<PayloadEstimate>(&node, &names.payload(), 4)?;
         let port = |what: &'static str| {
             move |e: iceoryx2::port::publisher::PublisherCreateError| IpcError::Setup {
                 what,

@@ -23,6 +23,8 @@ enum Message {
     State(RobotState),
     Collision(CollisionMessage),
     Payload(PayloadEstimate),
+    /// Ends the thread (its iceoryx2 resources are released before it ends).
+    Stop,
 }
 
 /// Sending side, owned by the loop (cheap to clone for the tokio side).
@@ -38,6 +40,7 @@ impl std::fmt::Debug for Message {
             Message::State(_) => "State",
             Message::Collision(_) => "Collision",
             Message::Payload(_) => "Payload",
+            Message::Stop => "Stop",
         })
     }
 }
@@ -75,10 +78,12 @@ impl IpcSender {
     }
 }
 
-/// The publisher thread; it ends when every [`IpcSender`] is dropped.
+/// The publisher thread; it ends when every [`IpcSender`] is dropped or when it is stopped
+/// ([`IpcThread::stop`], also on drop), after releasing its iceoryx2 resources.
 #[derive(Debug)]
 pub struct IpcThread {
     handle: Option<JoinHandle<()>>,
+    stop: SyncSender<Message>,
 }
 
 impl IpcThread {
@@ -98,6 +103,7 @@ impl IpcThread {
             Ok(Ok(())) => Ok((
                 Self {
                     handle: Some(handle),
+                    stop: tx.clone(),
                 },
                 IpcSender {
                     tx,
@@ -112,11 +118,25 @@ impl IpcThread {
         }
     }
 
-    /// Waits for the thread to finish (after all senders are dropped).
-    pub fn join(mut self) {
+    /// Stops the thread after the messages queued so far and waits until it has released its
+    /// iceoryx2 node, services and ports: a process that exits right after leaves nothing
+    /// half-removed for the next start. Later sends are dropped and counted.
+    pub fn stop(mut self) {
+        self.stop_and_join();
+    }
+
+    fn stop_and_join(&mut self) {
         if let Some(h) = self.handle.take() {
+            // Blocks only while the queue is full; the thread is draining it.
+            let _ = self.stop.send(Message::Stop);
             let _ = h.join();
         }
+    }
+}
+
+impl Drop for IpcThread {
+    fn drop(&mut self) {
+        self.stop_and_join();
     }
 }
 
@@ -137,6 +157,7 @@ fn run(names: IpcNames, rx: Receiver<Message>, ready: SyncSender<Result<(), IpcE
             Message::State(s) => publisher.publish_state(s),
             Message::Collision(e) => publisher.publish_collision(e),
             Message::Payload(p) => publisher.publish_payload(p),
+            Message::Stop => break,
         };
         if let Err(e) = r {
             errors += 1;

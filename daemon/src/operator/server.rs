@@ -10,7 +10,6 @@
 //! read up to their first line so that a `stop` is executed ([`super::overflow`]).
 
 use std::future::Future;
-use std::os::unix::fs::PermissionsExt;
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Duration;
@@ -141,6 +140,9 @@ pub enum ServerError {
         /// Underlying error.
         source: std::io::Error,
     },
+    /// The socket's directory (or a parent) is not trusted, or cannot be created or opened.
+    #[error("{0}")]
+    Directory(crate::persistence::dir::DirError),
     /// Another server answers on the socket path.
     #[error("another service is already listening on {0}")]
     InUse(std::path::PathBuf),
@@ -166,68 +168,15 @@ pub enum ServerError {
     },
 }
 
-/// What a file type is called in errors.
-fn describe(t: std::fs::FileType) -> &'static str {
-    use std::os::unix::fs::FileTypeExt;
-    if t.is_file() {
-        "regular file"
-    } else if t.is_dir() {
-        "directory"
-    } else if t.is_symlink() {
-        "symbolic link"
-    } else if t.is_fifo() {
-        "named pipe"
-    } else if t.is_block_device() || t.is_char_device() {
-        "device"
-    } else {
-        "file of unknown type"
-    }
-}
-
-/// Binds the operator socket at `path` with mode 0660. An existing socket file is removed only
-/// when it is stale (connecting is refused: a crashed instance left it); a live server there,
-/// or anything that is not a socket (checked without following symlinks), is an error.
+/// Binds the operator socket at `path` with mode 0660 ([`super::listener::bind`]: a checked
+/// directory; a stale socket is replaced, anything else at the path is an error).
 pub async fn bind(path: &Path) -> Result<UnixListener, ServerError> {
-    let err = |action: &'static str| {
-        let path = path.to_owned();
-        move |source| ServerError::Io {
-            action,
-            path,
-            source,
-        }
-    };
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(err("create directory for"))?;
-    }
-    match std::fs::symlink_metadata(path) {
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-        Err(e) => return Err(err("inspect")(e)),
-        Ok(meta) => {
-            use std::os::unix::fs::FileTypeExt;
-            if !meta.file_type().is_socket() {
-                return Err(ServerError::NotASocket {
-                    path: path.to_owned(),
-                    found: describe(meta.file_type()),
-                });
-            }
-            match UnixStream::connect(path).await {
-                Ok(_) => return Err(ServerError::InUse(path.to_owned())),
-                Err(e) if e.kind() == std::io::ErrorKind::ConnectionRefused => {
-                    std::fs::remove_file(path).map_err(err("remove stale socket"))?;
-                }
-                Err(source) => {
-                    return Err(ServerError::Unprobeable {
-                        path: path.to_owned(),
-                        source,
-                    });
-                }
-            }
-        }
-    }
-    let listener = UnixListener::bind(path).map_err(err("bind"))?;
-    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o660))
-        .map_err(err("set mode 0660 on"))?;
-    Ok(listener)
+    let listener = super::listener::bind(path)?;
+    UnixListener::from_std(listener).map_err(|source| ServerError::Io {
+        action: "register",
+        path: path.to_owned(),
+        source,
+    })
 }
 
 /// Longest wait at shutdown for the connections to answer their pending requests and close.

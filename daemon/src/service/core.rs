@@ -135,8 +135,9 @@ pub fn compensation(p: &AppliedPayload) -> PayloadCompensation {
 
 impl ServiceCore {
     /// Assembles the service; `payload`/`tare`/`monitor` are what was reloaded from the state
-    /// directory (`config` already carries the reloaded monitor settings, see
-    /// [`crate::service::with_stored_monitor`]).
+    /// directory. `config` is the configuration file's: the stored monitor settings are put in
+    /// force over it ([`crate::service::with_stored_monitor`]), and it stays what
+    /// [`Self::weaker_than_configuration`] compares them with.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         config: Config,
@@ -151,15 +152,19 @@ impl ServiceCore {
         fri_state: Option<FriStateSource>,
     ) -> Self {
         let payload_origin = payload.map(|_| fri_api::origin::Origin::Restored);
+        let in_force = monitor
+            .as_ref()
+            .map(|m| crate::service::with_stored_monitor(&config, m));
+        let effective = in_force.as_ref().unwrap_or(&config);
         let state = Persistent {
             payload_origin,
             payload,
             tare,
-            armed: config.observer.armed,
-            thresholds: config.observer.thresholds,
-            gains: config.observer.gains,
-            reaction: config.reaction.policy,
-            pause_s: config.reaction.pause_s,
+            armed: effective.observer.armed,
+            thresholds: effective.observer.thresholds,
+            gains: effective.observer.gains,
+            reaction: effective.reaction.policy,
+            pause_s: effective.reaction.pause_s,
             stored_monitor: monitor,
             unknown_payload: None,
             declarations: 0,

@@ -19,8 +19,8 @@ pub mod stream;
 pub mod workflow;
 
 use std::net::SocketAddr;
-use std::sync::Arc;
 use std::sync::mpsc::sync_channel;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use anyhow::Context as _;
@@ -33,10 +33,13 @@ use tokio::sync::watch;
 use crate::config::{Config, ReactionMode};
 use crate::ipc::{IpcNames, IpcThread};
 use crate::operator::server::{self, AccessPolicy, ServerLimits};
-use crate::persistence::{StateStore, StoredMonitor};
+use crate::persistence::lock::InstanceLock;
+use crate::persistence::{AppliedPayload, StateStore, StoredMonitor};
 use core::{ServiceCore, compensation};
 use cycle::{CycleProcessor, CycleRequest, ProcessorSettings};
 use dispatch::Dispatcher;
+use fri_api::origin::Origin;
+use fri_api::results::Change;
 
 /// Capacity of the loop → fan-out queue, messages (≈ 4 s at 1 kHz).
 const EVENT_QUEUE: usize = 4096;
@@ -99,13 +102,18 @@ pub fn with_stored_monitor(config: &Config, m: &StoredMonitor) -> Config {
     c
 }
 
-/// A running service: endpoint, fan-out and iceoryx2 threads, and the shared core.
+/// A running service: endpoint, fan-out and iceoryx2 threads, the shared core, the bound
+/// operator socket and the state directory's instance lock.
 pub struct RunningService {
     /// The core shared with the operator handler.
     pub core: Arc<ServiceCore>,
     endpoint: Option<Arc<Endpoint>>,
     ipc: Option<IpcThread>,
     stream: Option<std::thread::JoinHandle<()>>,
+    /// Bound at start, served by [`RunningService::serve_operator`].
+    listener: Mutex<Option<std::os::unix::net::UnixListener>>,
+    /// Held until the loop has stopped.
+    lock: Option<InstanceLock>,
 }
 
 impl std::fmt::Debug for RunningService {
@@ -115,12 +123,17 @@ impl std::fmt::Debug for RunningService {
 }
 
 impl RunningService {
-    /// Starts everything except the operator socket.
+    /// Starts the service: everything that can fail happens before the FRI endpoint answers
+    /// anything, in this order: the configuration is validated, the state directory checked
+    /// and locked (one service per state directory) and its state restored, the recording
+    /// directory checked, the operator socket bound (served by
+    /// [`RunningService::serve_operator`]), iceoryx2 set up, and last the UDP port bound
+    /// (exclusively) and the endpoint started.
     pub fn start(config: Config) -> anyhow::Result<Self> {
         config.validate()?;
         let model = dynamics::lwr4();
-        let store = StateStore::open(&config.state.dir)
-            .with_context(|| format!("state directory {}", config.state.dir.display()))?;
+        let store = StateStore::open(&config.state.dir)?;
+        let lock = InstanceLock::acquire(store.checked_dir())?;
         let payload = store
             .load_payload()
             .context("reloading the applied payload")?;
@@ -131,7 +144,7 @@ impl RunningService {
         // The stored settings are checked against this configuration's ranges (the gain bound
         // follows fri.cycle_s): a file that no longer fits stops the start rather than running
         // with other settings than the operator set.
-        let config = match &stored_monitor {
+        let effective = match &stored_monitor {
             Some(m) => {
                 let c = with_stored_monitor(&config, m);
                 c.validate().with_context(|| {
@@ -142,12 +155,6 @@ impl RunningService {
                         store.monitor_path().display()
                     )
                 })?;
-                tracing::info!(
-                    thresholds = ?m.thresholds,
-                    gains = ?m.gains,
-                    reaction = m.reaction.name(),
-                    "reloaded the collision monitor's settings"
-                );
                 if !core::same_payload(m.set_for_payload.as_ref(), payload.as_ref()) {
                     tracing::warn!(
                         set_for = ?m.set_for_payload,
@@ -157,10 +164,11 @@ impl RunningService {
                 }
                 c
             }
-            None => config,
+            None => config.clone(),
         };
-        // Created (and checked) now so a bad `state.record_dir` stops the start, not a recording.
+        // Checked now so a bad `state.record_dir` stops the start, not a recording.
         crate::recordings::RecordDir::open(&config.state.record_dir())?;
+        let listener = crate::operator::listener::bind(&config.operator.socket)?;
 
         let (ipc_thread, ipc) = if config.iceoryx2.enabled {
             let names = IpcNames {
@@ -180,15 +188,14 @@ impl RunningService {
             .context("starting the stream thread")?;
 
         let schedule = stored_monitor.as_ref().and_then(|m| m.schedule.as_ref());
-        let monitor = build_scheduled_monitor(&config, model.clone(), schedule)
+        let monitor = build_scheduled_monitor(&effective, model.clone(), schedule)
             .context("observer configuration")?;
-        let settings = ProcessorSettings::from_config(&config);
+        let settings = ProcessorSettings::from_config(&effective);
         let processor = CycleProcessor::new(settings, monitor, request_rx, event_tx);
         if let Some(p) = &payload {
             request_tx
                 .try_send(CycleRequest::SetPayload(Some(compensation(p))))
                 .ok();
-            tracing::info!(mass = p.mass, com = ?p.com, "reloaded applied payload");
         }
 
         let mut ec = EndpointConfig::default();
@@ -201,9 +208,14 @@ impl RunningService {
         // timeout: four times per connection timeout, so a silence is seen when it begins.
         ec.socket.receive_timeout = core::connection_timeout(config.fri.cycle_s) / 4;
         let endpoint =
-            Arc::new(Endpoint::spawn(ec, processor).context("starting the FRI endpoint")?);
+            Arc::new(Endpoint::spawn(ec, processor).map_err(|e| endpoint_error(e, &config))?);
         // A weak handle: the core must not keep the loop alive after shutdown.
         let source = Arc::downgrade(&endpoint);
+        let restored = Restored {
+            monitor: stored_monitor.is_some(),
+            payload,
+            tare: tare.is_some(),
+        };
         let core = Arc::new(ServiceCore::new(
             config,
             model,
@@ -218,11 +230,14 @@ impl RunningService {
                 source.upgrade().map(|e| e.latest()).unwrap_or_default()
             })),
         ));
+        restored.audit(&core);
         Ok(Self {
             core,
             endpoint: Some(endpoint),
             ipc: ipc_thread,
             stream: Some(stream),
+            listener: Mutex::new(Some(listener)),
+            lock: Some(lock),
         })
     }
 
@@ -237,7 +252,13 @@ impl RunningService {
     /// [`LEAVE_COMMAND_TIMEOUT`]).
     pub async fn serve_operator(&self, shutdown: watch::Receiver<bool>) -> anyhow::Result<()> {
         let c = &self.core.config().operator;
-        let listener = server::bind(&c.socket).await?;
+        let bound = match self.listener.lock() {
+            Ok(mut l) => l.take(),
+            Err(p) => p.into_inner().take(),
+        };
+        let bound = bound.context("the operator socket is already being served")?;
+        let listener = tokio::net::UnixListener::from_std(bound)
+            .with_context(|| format!("operator.socket {}", c.socket.display()))?;
         tracing::info!(socket = %c.socket.display(), "operator socket listening");
         let policy = AccessPolicy {
             allowed_uids: c.allowed_uids.clone(),
@@ -292,7 +313,75 @@ impl RunningService {
             }
         }
         if let Some(t) = self.ipc.take() {
-            drop(t);
+            // Waits until its iceoryx2 resources are released (the next start finds none).
+            t.stop();
+        }
+        // Released last: the loop no longer answers the controller.
+        self.lock.take();
+    }
+}
+
+/// The endpoint's error, saying when another program holds the UDP port.
+fn endpoint_error(e: fri::endpoint::EndpointError, config: &Config) -> anyhow::Error {
+    use fri::endpoint::EndpointError;
+    match &e {
+        EndpointError::Socket { source, .. } if source.kind() == std::io::ErrorKind::AddrInUse => {
+            anyhow::anyhow!(
+                "fri.bind {}: the UDP port is in use (another fri-service, fri-monitor or FRI \
+                 program?); the service binds it exclusively so no other program can take the \
+                 controller's datagrams: {e}",
+                config.fri.bind
+            )
+        }
+        _ => anyhow::Error::new(e).context("starting the FRI endpoint"),
+    }
+}
+
+/// What the start restored from the state directory, for the audit trail.
+struct Restored {
+    monitor: bool,
+    payload: Option<AppliedPayload>,
+    tare: bool,
+}
+
+impl Restored {
+    /// One audit record per restored file (origin: restored state), a warning when it makes
+    /// the monitor weaker than the configuration: higher thresholds, lower gains, a report-only
+    /// reaction, or a payload the configuration does not apply (a wrong one shifts the residual
+    /// by its gravity torque, which can hide a contact).
+    fn audit(&self, core: &ServiceCore) {
+        let store = &core.store;
+        if self.monitor {
+            let weaker = core.weaker_than_configuration(&core.monitor_settings());
+            core.audit.record(
+                &Origin::Restored,
+                Change::Restored {
+                    file: store.monitor_path().display().to_string(),
+                    weaker_than_configuration: weaker,
+                },
+            );
+        }
+        if let Some(p) = &self.payload {
+            core.audit.record(
+                &Origin::Restored,
+                Change::Restored {
+                    file: store.payload_path().display().to_string(),
+                    weaker_than_configuration: vec![format!(
+                        "payload {:.3} kg at ({:.3}, {:.3}, {:.3}) m compensated; the \
+                         configuration compensates none",
+                        p.mass, p.com[0], p.com[1], p.com[2]
+                    )],
+                },
+            );
+        }
+        if self.tare {
+            core.audit.record(
+                &Origin::Restored,
+                Change::Restored {
+                    file: store.tare_path().display().to_string(),
+                    weaker_than_configuration: Vec::new(),
+                },
+            );
         }
     }
 }

@@ -36,14 +36,15 @@ impl Default for SocketConfig {
     }
 }
 
-/// Creates, configures and binds the socket. Address reuse and binding are required; the
-/// buffer size and DSCP are best effort (warning on failure).
+/// Creates, configures and binds the socket. The bind is exclusive: neither `SO_REUSEADDR`
+/// nor `SO_REUSEPORT` is set, so a second program binding the same port (a second service with
+/// the same configuration) fails with "address in use" instead of sharing, and taking, the
+/// controller's datagrams. The buffer size and DSCP are best effort (warning on failure).
 pub(crate) fn open(config: &SocketConfig) -> Result<Socket, EndpointError> {
     let addr = config.bind;
     let err = |source| EndpointError::Socket { addr, source };
     let socket =
         Socket::new(Domain::for_address(addr), Type::DGRAM, Some(Protocol::UDP)).map_err(err)?;
-    socket.set_reuse_address(true).map_err(err)?;
     if let Err(e) = socket.set_recv_buffer_size(config.receive_buffer) {
         tracing::warn!(error = %e, "receive buffer size not applied");
     }

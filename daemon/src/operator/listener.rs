@@ -1,0 +1,68 @@
+//! Creating the operator socket's listener, synchronously, so the service binds it before the
+//! FRI endpoint answers anything (a start that cannot offer `stop` never drives the arm).
+//!
+//! The socket's directory is a checked directory (`persistence::dir`, [`Rule::Trusted`]: owned
+//! by root or the service's user, not writable by group or others unless root-owned and sticky,
+//! and so are its parents; created with mode 0755 if missing), so no other user can replace the
+//! socket the operators' `stop` goes to. A socket file already at the path is removed only when
+//! it is stale (connecting is refused: a crashed instance left it); a live server there, or
+//! anything that is not a socket (checked without following symlinks), is an error.
+
+use std::os::unix::fs::PermissionsExt;
+use std::os::unix::net::{UnixListener, UnixStream};
+use std::path::Path;
+
+use super::server::ServerError;
+use crate::persistence::dir::{CheckedDir, Rule};
+
+/// Binds the operator socket at `path` with mode 0660, non-blocking (ready for tokio's
+/// `UnixListener::from_std`).
+pub fn bind(path: &Path) -> Result<UnixListener, ServerError> {
+    let err = |action: &'static str, at: &Path| {
+        let path = at.to_owned();
+        move |source| ServerError::Io {
+            action,
+            path,
+            source,
+        }
+    };
+    let Some(name) = path.file_name().and_then(|n| n.to_str()) else {
+        return Err(err("bind", path)(std::io::ErrorKind::InvalidInput.into()));
+    };
+    let parent = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let dir = CheckedDir::open(parent, "operator.socket's directory", Rule::Trusted)
+        .map_err(ServerError::Directory)?;
+    let full = dir.join(name);
+    match dir.entry(name).map_err(err("inspect", path))? {
+        None => {}
+        Some(st) if !st.is_socket() => {
+            return Err(ServerError::NotASocket {
+                path: path.to_owned(),
+                found: st.kind(),
+            });
+        }
+        Some(_) => match UnixStream::connect(&full) {
+            Ok(_) => return Err(ServerError::InUse(path.to_owned())),
+            Err(e) if e.kind() == std::io::ErrorKind::ConnectionRefused => {
+                dir.remove(name).map_err(err("remove stale socket", path))?;
+            }
+            Err(source) => {
+                return Err(ServerError::Unprobeable {
+                    path: path.to_owned(),
+                    source,
+                });
+            }
+        },
+    }
+    // By path, in a directory nobody else may change.
+    let listener = UnixListener::bind(&full).map_err(err("bind", path))?;
+    std::fs::set_permissions(&full, std::fs::Permissions::from_mode(0o660))
+        .map_err(err("set mode 0660 on", path))?;
+    listener
+        .set_nonblocking(true)
+        .map_err(err("set non-blocking", path))?;
+    Ok(listener)
+}

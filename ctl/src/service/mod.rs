@@ -7,6 +7,7 @@ mod apply_payload;
 mod clear_payload;
 mod collision;
 mod collision_calibrate;
+mod counts;
 mod error;
 mod estimate;
 mod expect_payload;

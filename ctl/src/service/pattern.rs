@@ -20,7 +20,7 @@ pub struct PatternArgs {
     )]
     pub around: Option<Vec<f64>>,
     /// Number of poses: 2…100 (default: the service's `estimation.pattern_poses`).
-    #[arg(long)]
+    #[arg(long, value_parser = super::counts::poses)]
     pub poses: Option<usize>,
     /// Pattern increment, deg: 1…30 (default: the service's `estimation.pattern_step_deg`, or
     /// the pattern's own: 5 for centred, 7 for paper and optimized).

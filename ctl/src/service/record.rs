@@ -61,7 +61,7 @@ pub struct RecordArgs {
     #[arg(long, value_name = "SECONDS")]
     pub duration: Option<f64>,
     /// Number of static samples: 1…1000 (with `--kind samples`; default 1).
-    #[arg(long)]
+    #[arg(long, value_parser = super::counts::record_count)]
     pub count: Option<usize>,
     /// Output format.
     #[command(flatten)]

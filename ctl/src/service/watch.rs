@@ -27,7 +27,7 @@ With `--json` every event is one JSON line `{\"event\": …, \"data\": …}`.";
 #[derive(Debug, Clone, Args)]
 pub struct WatchArgs {
     /// Also print a state line every N cycles: 1…100000.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = super::counts::state_every)]
     pub state_every: Option<u32>,
     /// Output format.
     #[command(flatten)]

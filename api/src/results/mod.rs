@@ -30,7 +30,7 @@ pub use fri::session::{PendingResync, RejectionCounters, ResyncKind, SessionStat
 /// The controller's statistics inside [`FriStatus`] and [`crate::fri_context::FriContext`].
 pub use fri::wire::InterfaceStatistics;
 
-pub use audit::{AuditRecord, Change};
+pub use audit::{AuditRecord, Change, ReleaseReason};
 pub use calibrate::{CalibrateResult, JointFit, LinkForce};
 pub use collision::{CalibrationInfo, CollisionResult, MonitorSettings, ThresholdSchedule};
 pub use estimate::{

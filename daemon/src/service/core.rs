@@ -136,7 +136,8 @@ pub fn compensation(p: &AppliedPayload) -> PayloadCompensation {
 impl ServiceCore {
     /// Assembles the service; `payload`/`tare`/`monitor` are what was reloaded from the state
     /// directory (`config` already carries the reloaded monitor settings, see
-    /// [`crate::service::with_stored_monitor`]).
+    /// [`crate::service::with_stored_monitor`]); `audit` is the trail the stream thread writes
+    /// the loop's own changes to.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         config: Config,
@@ -149,6 +150,7 @@ impl ServiceCore {
         monitor: Option<StoredMonitor>,
         ipc: Option<IpcSender>,
         fri_state: Option<FriStateSource>,
+        audit: Arc<crate::audit::Audit>,
     ) -> Self {
         let payload_origin = payload.map(|_| fri_api::origin::Origin::Restored);
         let state = Persistent {
@@ -175,7 +177,7 @@ impl ServiceCore {
             ipc,
             fri_state,
             calibration_recording: Mutex::new(None),
-            audit: Arc::new(crate::audit::Audit::new()),
+            audit,
         }
     }
 

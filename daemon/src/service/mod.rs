@@ -10,6 +10,7 @@
 pub mod core;
 pub mod cycle;
 pub mod dispatch;
+pub mod loop_audit;
 pub mod output;
 pub mod pattern;
 pub mod replay;
@@ -99,6 +100,32 @@ pub fn with_stored_monitor(config: &Config, m: &StoredMonitor) -> Config {
     c
 }
 
+/// Records what the configuration file puts in force at start (`Origin::Configuration`): the
+/// arming, and the monitor's settings unless `collision configure` stored its own (those are
+/// recorded as restored).
+fn audit_configuration(audit: &crate::audit::Audit, config: &Config, stored_monitor: bool) {
+    use fri_api::origin::Origin;
+    use fri_api::results::Change;
+    let origin = Origin::Configuration;
+    if !stored_monitor {
+        audit.record(
+            &origin,
+            Change::MonitorConfigured {
+                thresholds: config.observer.thresholds,
+                gains: config.observer.gains,
+                reaction: config.reaction.policy,
+                weaker_than_configuration: Vec::new(),
+            },
+        );
+    }
+    let arming = if config.observer.armed {
+        Change::Armed
+    } else {
+        Change::Disarmed
+    };
+    audit.record(&origin, arming);
+}
+
 /// A running service: endpoint, fan-out and iceoryx2 threads, and the shared core.
 pub struct RunningService {
     /// The core shared with the operator handler.
@@ -174,9 +201,10 @@ impl RunningService {
         };
 
         let shared = stream::Shared::new();
+        let audit = Arc::new(crate::audit::Audit::new());
         let (event_tx, event_rx) = sync_channel(EVENT_QUEUE);
         let (request_tx, request_rx) = sync_channel(REQUEST_QUEUE);
-        let stream = stream::spawn(event_rx, shared.clone(), ipc.clone())
+        let stream = stream::spawn(event_rx, shared.clone(), ipc.clone(), audit.clone())
             .context("starting the stream thread")?;
 
         let schedule = stored_monitor.as_ref().and_then(|m| m.schedule.as_ref());
@@ -202,6 +230,7 @@ impl RunningService {
         ec.socket.receive_timeout = core::connection_timeout(config.fri.cycle_s) / 4;
         let endpoint =
             Arc::new(Endpoint::spawn(ec, processor).context("starting the FRI endpoint")?);
+        audit_configuration(&audit, &config, stored_monitor.is_some());
         // A weak handle: the core must not keep the loop alive after shutdown.
         let source = Arc::downgrade(&endpoint);
         let core = Arc::new(ServiceCore::new(
@@ -217,6 +246,7 @@ impl RunningService {
             Some(Arc::new(move || {
                 source.upgrade().map(|e| e.latest()).unwrap_or_default()
             })),
+            audit,
         ));
         Ok(Self {
             core,

@@ -36,7 +36,7 @@ use safety::{
 };
 
 pub use super::output::CycleEvent;
-use super::output::{AbortReason, FriContext, ResyncReason, StopReason};
+use super::output::{AbortReason, FriContext, ReleaseReason, ResyncReason, StopReason};
 use crate::ipc::{CollisionMessage, RobotState};
 use crate::motion::{JointMove, MotionLimits};
 use fri_api::ipc::flags;
@@ -354,7 +354,7 @@ impl CycleProcessor {
             self.apply_reaction(r, fri);
         }
         if self.resume_when_clear && !self.monitor.detector().in_contact() {
-            self.resume(fri);
+            self.resume(fri, Some(ReleaseReason::ContactEnded));
         }
 
         let (desired, new_request) = self.command(msr, handshake, request, fri);

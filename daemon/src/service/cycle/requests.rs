@@ -47,7 +47,7 @@ impl CycleProcessor {
                     if self.armed && self.monitor.detector().in_contact() {
                         self.resume_when_clear = true;
                     } else {
-                        self.resume(fri);
+                        self.resume(fri, None);
                     }
                 }
                 CycleRequest::SetPayload(p) => {
@@ -90,8 +90,9 @@ impl CycleProcessor {
             }
         }
     }
-    /// Ends every hold (operator stop, reaction) and readies the reaction for the next onset.
-    pub(super) fn resume(&mut self, _fri: FriContext) {
+    /// Ends every hold (operator stop, reaction) and readies the reaction for the next onset;
+    /// `by_service` says why when no operator request does it now.
+    pub(super) fn resume(&mut self, _fri: FriContext, by_service: Option<ReleaseReason>) {
         let was = self.is_holding();
         self.resume_when_clear = false;
         self.operator_stop = false;
@@ -100,7 +101,10 @@ impl CycleProcessor {
         // The hold ended here: the supervisor must be ready for the next onset.
         self.monitor.release_reaction();
         if was {
-            self.emit(CycleEvent::Resumed { cycle: self.cycle });
+            self.emit(CycleEvent::Resumed {
+                cycle: self.cycle,
+                by_service,
+            });
         }
     }
     pub(super) fn abort_move(&mut self, reason: AbortReason, fri: FriContext) {
@@ -160,7 +164,10 @@ impl CycleProcessor {
                     {
                         self.pending_target = Some(t);
                     }
-                    self.emit(CycleEvent::Resumed { cycle: self.cycle });
+                    self.emit(CycleEvent::Resumed {
+                        cycle: self.cycle,
+                        by_service: Some(ReleaseReason::PauseElapsed),
+                    });
                 }
             }
         }

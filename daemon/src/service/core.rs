@@ -68,6 +68,8 @@ pub struct ServiceCore {
     pub(crate) model: Model<7>,
     pub(crate) shared: Arc<Shared>,
     pub(crate) rt: SyncSender<CycleRequest>,
+    /// The operator's stops, outside `rt` (no queued request delays them).
+    pub(crate) stop_latch: super::cycle::StopLatch,
     pub(crate) store: StateStore,
     pub(crate) state: Mutex<Persistent>,
     pub(crate) workflow: tokio::sync::Mutex<()>,
@@ -137,7 +139,7 @@ impl ServiceCore {
     /// Assembles the service; `payload`/`tare`/`monitor` are what was reloaded from the state
     /// directory (`config` already carries the reloaded monitor settings, see
     /// [`crate::service::with_stored_monitor`]); `audit` is the trail the stream thread writes
-    /// the loop's own changes to.
+    /// the loop's own changes to; `stop_latch` is the loop's ([`super::cycle::StopLatch`]).
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         config: Config,
@@ -151,6 +153,7 @@ impl ServiceCore {
         ipc: Option<IpcSender>,
         fri_state: Option<FriStateSource>,
         audit: Arc<crate::audit::Audit>,
+        stop_latch: super::cycle::StopLatch,
     ) -> Self {
         let payload_origin = payload.map(|_| fri_api::origin::Origin::Restored);
         let state = Persistent {
@@ -171,6 +174,7 @@ impl ServiceCore {
             model,
             shared,
             rt,
+            stop_latch,
             store,
             state: Mutex::new(state),
             workflow: tokio::sync::Mutex::new(()),

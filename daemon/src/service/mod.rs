@@ -212,6 +212,7 @@ impl RunningService {
             .context("observer configuration")?;
         let settings = ProcessorSettings::from_config(&config);
         let processor = CycleProcessor::new(settings, monitor, request_rx, event_tx);
+        let stop_latch = processor.stop_latch();
         if let Some(p) = &payload {
             request_tx
                 .try_send(CycleRequest::SetPayload(Some(compensation(p))))
@@ -247,6 +248,7 @@ impl RunningService {
                 source.upgrade().map(|e| e.latest()).unwrap_or_default()
             })),
             audit,
+            stop_latch,
         ));
         Ok(Self {
             core,

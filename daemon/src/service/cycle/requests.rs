@@ -31,17 +31,14 @@ impl CycleProcessor {
                     self.brake();
                     self.command_wanted = false;
                 }
-                CycleRequest::Stop => {
-                    self.operator_stop = true;
-                    self.resume_when_clear = false;
-                    self.brake();
-                    self.emit(CycleEvent::Stopped {
-                        cycle: self.cycle,
-                        reason: StopReason::Operator,
-                        fri,
-                    });
-                }
-                CycleRequest::Resume => {
+                CycleRequest::Stop => self.operator_stop(fri),
+                CycleRequest::Resume { after_stops } => {
+                    // A stop requested after this resume was sent holds, even when the queue
+                    // delivers the resume later.
+                    self.take_latched_stop(fri);
+                    if after_stops < self.stops_handled {
+                        continue;
+                    }
                     // Into a contact that is still present, the resume waits for its release
                     // (the old reaction would otherwise be replaced by a new one at once).
                     if self.armed && self.monitor.detector().in_contact() {
@@ -90,6 +87,27 @@ impl CycleProcessor {
             }
         }
     }
+    /// Latches the stops requested through the [`StopLatch`] since the last look.
+    pub(super) fn take_latched_stop(&mut self, fri: FriContext) {
+        let requested = self.stop_latch.requested();
+        if requested != self.stops_handled {
+            self.stops_handled = requested;
+            self.operator_stop(fri);
+        }
+    }
+
+    /// The operator's stop: brake any move and hold until a resume.
+    fn operator_stop(&mut self, fri: FriContext) {
+        self.operator_stop = true;
+        self.resume_when_clear = false;
+        self.brake();
+        self.emit(CycleEvent::Stopped {
+            cycle: self.cycle,
+            reason: StopReason::Operator,
+            fri,
+        });
+    }
+
     /// Ends every hold (operator stop, reaction) and readies the reaction for the next onset;
     /// `by_service` says why when no operator request does it now.
     pub(super) fn resume(&mut self, _fri: FriContext, by_service: Option<ReleaseReason>) {

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-pub use fri_api::{DEFAULT_SOCKET, JOINTS};
+pub use fri_api::{DEFAULT_SOCKET, JOINTS, stop_socket_beside};
 
 /// Errors while loading or validating the configuration.
 #[derive(Debug, thiserror::Error)]
@@ -282,6 +282,10 @@ impl Default for UnknownPayloadConfig {
 pub struct OperatorConfig {
     /// Unix socket path (default `/tmp/fri-service/operator.sock`).
     pub socket: PathBuf,
+    /// The stop socket: accepts only `stop`, with its own connections, so that no other client
+    /// can occupy the stop path (default: beside `socket`, `.stop` before its extension, e.g.
+    /// `/tmp/fri-service/operator.stop.sock`; same mode and peer-credential policy).
+    pub stop_socket: Option<PathBuf>,
     /// User ids allowed to connect besides root and the service's own user (default none).
     pub allowed_uids: Vec<u32>,
     /// Group ids allowed to connect (default none).
@@ -299,12 +303,22 @@ impl Default for OperatorConfig {
     fn default() -> Self {
         Self {
             socket: PathBuf::from(DEFAULT_SOCKET),
+            stop_socket: None,
             allowed_uids: Vec::new(),
             allowed_gids: Vec::new(),
             max_line_bytes: 65536,
             max_clients: 64,
             idle_timeout_s: 30.0,
         }
+    }
+}
+
+impl OperatorConfig {
+    /// The stop socket's path: `stop_socket`, or beside `socket`.
+    pub fn stop_socket_path(&self) -> PathBuf {
+        self.stop_socket
+            .clone()
+            .unwrap_or_else(|| stop_socket_beside(&self.socket))
     }
 }
 

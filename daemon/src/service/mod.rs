@@ -34,6 +34,7 @@ use tokio::sync::watch;
 use crate::config::{Config, ReactionMode};
 use crate::ipc::{IpcNames, IpcThread};
 use crate::operator::server::{self, AccessPolicy, ServerLimits};
+use crate::operator::stop_socket::{self, StopLimits};
 use crate::persistence::{StateStore, StoredMonitor};
 use core::{ServiceCore, compensation};
 use cycle::{CycleProcessor, CycleRequest, ProcessorSettings};
@@ -269,7 +270,15 @@ impl RunningService {
     /// [`LEAVE_COMMAND_TIMEOUT`]).
     pub async fn serve_operator(&self, shutdown: watch::Receiver<bool>) -> anyhow::Result<()> {
         let c = &self.core.config().operator;
-        let listener = server::bind(&c.socket).await?;
+        // The stop path first: by the time the operator socket answers, `stop` has its own.
+        let stop_path = c.stop_socket_path();
+        let stop_listener = server::bind(&stop_path)
+            .await
+            .with_context(|| format!("operator.stop_socket {}", stop_path.display()))?;
+        tracing::info!(socket = %stop_path.display(), "stop socket listening");
+        let listener = server::bind(&c.socket)
+            .await
+            .with_context(|| format!("operator.socket {}", c.socket.display()))?;
         tracing::info!(socket = %c.socket.display(), "operator socket listening");
         let policy = AccessPolicy {
             allowed_uids: c.allowed_uids.clone(),
@@ -289,15 +298,18 @@ impl RunningService {
                 let _ = core.send(CycleRequest::Shutdown);
             }
         };
-        let serving = server::serve(
-            listener,
-            Arc::new(Dispatcher(self.core.clone())),
-            policy,
-            limits,
-            shutdown,
+        let dispatcher = Arc::new(Dispatcher(self.core.clone()));
+        let stopping = stop_socket::serve(
+            stop_listener,
+            dispatcher.clone(),
+            policy.clone(),
+            StopLimits::default(),
+            shutdown.clone(),
         );
-        tokio::join!(serving, brake);
+        let serving = server::serve(listener, dispatcher, policy, limits, shutdown);
+        tokio::join!(serving, stopping, brake);
         let _ = std::fs::remove_file(&c.socket);
+        let _ = std::fs::remove_file(&stop_path);
         self.core.leave_command_mode(LEAVE_COMMAND_TIMEOUT).await;
         Ok(())
     }

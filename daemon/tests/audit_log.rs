@@ -258,3 +258,37 @@ fn an_operator_change_names_the_uid() {
         h.stop().await;
     });
 }
+
+/// A `stop` on the stop socket (issue 20 item 6) is audited like one on the operator socket:
+/// `command` then `stopped`, naming the operator's uid and pid.
+#[test]
+fn a_stop_on_the_stop_socket_names_the_uid() {
+    let _turn = exclusive();
+    runtime().block_on(async {
+        let dir = tempfile::tempdir().unwrap();
+        let mut config = test_config(dir.path());
+        config.iceoryx2.enabled = false;
+        let stop_socket = config.operator.stop_socket_path();
+        let h = Harness::start(config, dir).await;
+        // No controller: the stop is latched and answered as `silent`.
+        let mut c = fri_api::client::Client::connect(&stop_socket)
+            .await
+            .unwrap();
+        let reply = call(&mut c, Command::Stop).await.unwrap();
+        assert_eq!(reply["stopped"], true, "{reply}");
+        // SAFETY: no preconditions.
+        let uid = unsafe { libc::geteuid() };
+        let who = format!("origin=operator uid {uid} (pid {})", std::process::id());
+        let l = lines();
+        let stopped = of(&l, "stopped");
+        assert_eq!(stopped.len(), 1, "{l:#?}");
+        assert!(stopped[0].contains(&who), "{stopped:?}");
+        assert!(
+            of(&l, "command")
+                .iter()
+                .any(|c| c.contains("stop") && c.contains(&who)),
+            "{l:#?}"
+        );
+        h.stop().await;
+    });
+}

@@ -114,6 +114,14 @@ fn status_connected_and_disconnected() {
     warming["residual"] = json!([null, null, null, null, null, null, null]);
     let s: StatusResult = round_trip(warming);
     assert!(s.residual.unwrap()[0].is_nan());
+    // Right after a controller restart: not connected, resynchronising (`fri.resync`).
+    let mut resync = connected.clone();
+    resync["connected"] = json!(false);
+    resync["fri"]["resync"] = json!({"kind": "restart", "source": "192.168.0.20:49938",
+                                     "refused": 420u64, "remaining_s": 0.58, "resync_after_s": 1.0});
+    let s: StatusResult = round_trip(resync);
+    let r = s.fri.unwrap().resync.unwrap();
+    assert_eq!((r.kind, r.refused), (ResyncKind::Restart, 420));
     // The payload declared unknown, three static samples fitted.
     let mut grasping = connected;
     grasping["unknown_payload"] = json!({

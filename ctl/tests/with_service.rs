@@ -437,3 +437,87 @@ async fn fri_ctl_collision_configure_checks_ranges_and_the_service_keeps_the_set
     assert_eq!(row.matches("4.00").count(), 7, "{row}");
     h.stop().await.unwrap();
 }
+
+/// Issue 20 item 10: right after a controller restart the new controller is refused for
+/// `fri.resync_after_s` (its sequence does not follow the old one); `status` says that it is
+/// resynchronising and for how long, instead of only "NOT connected", and connects after it.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn status_says_resynchronising_after_a_controller_restart() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut config = local_config(dir.path(), "ctlresync");
+    config.iceoryx2.enabled = false;
+    config.observer.armed = false;
+    // A wide window so that a loaded machine still sees it (the rule is the same at 1 s).
+    config.fri.resync_after_s = 3.0;
+    let h = InProcess::start(config).await.unwrap();
+    // Late enough that the new counter (from 0, one per ms) is still far behind the old one
+    // when the window ends: it is refused as out of the window, then accepted as a restart.
+    let sim = SimulationConfig {
+        restarts_s: vec![4.0],
+        ..SimulationConfig::default()
+    };
+    let driver =
+        mock_robot::spawn_new(sim, ServerConfig::loopback(h.fri, TimingMode::RealTime)).unwrap();
+    let mut c = h.client().await.unwrap();
+    wait_connected(&mut c).await;
+    let socket = h.socket.clone();
+    let status = |json: bool| {
+        let socket = socket.clone();
+        tokio::task::spawn_blocking(move || {
+            let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_fri-ctl"));
+            cmd.arg("status").arg("--socket").arg(&socket);
+            if json {
+                cmd.arg("--json");
+            }
+            cmd.output().unwrap()
+        })
+    };
+    // Until the restart is refused: the text names the resync and the time left.
+    let mut seen = None;
+    for _ in 0..800 {
+        let out = status(false).await.unwrap();
+        let text = String::from_utf8_lossy(&out.stdout).into_owned();
+        if text.contains("RESYNCHRONISING") {
+            seen = Some(text);
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(25)).await;
+    }
+    let text = seen.expect("status never said it was resynchronising");
+    let line = text.lines().next().unwrap();
+    assert!(
+        line.contains("with a restarted controller")
+            && line.contains("fri.resync_after_s = 3.00 s"),
+        "{line}"
+    );
+    let left: f64 = line
+        .split("accepted in ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{line}"));
+    assert!(left > 0.0 && left <= 3.0, "{line}");
+    // The typed field, while it lasts.
+    let out = status(true).await.unwrap();
+    let json: Value = serde_json::from_slice(&out.stdout).unwrap();
+    if json["connected"] == false {
+        let r = &json["fri"]["resync"];
+        assert_eq!(r["kind"], "restart", "{json}");
+        assert!(r["refused"].as_u64().unwrap() > 0, "{json}");
+        let left = r["remaining_s"].as_f64().unwrap();
+        assert!(left > 0.0 && left <= 3.0, "{json}");
+    }
+    // After the window the restarted controller is accepted.
+    wait_connected(&mut c).await;
+    let s = call(&mut c, Command::Status).await.unwrap();
+    assert!(s["fri"].get("resync").is_none(), "{s}");
+    assert!(
+        s["fri"]["statistics"]["sequence"]["restarted"]
+            .as_u64()
+            .unwrap()
+            >= 1,
+        "{s}"
+    );
+    drop(driver.join());
+    h.stop().await.unwrap();
+}

@@ -4,14 +4,16 @@
 //!
 //! The log's volume is bounded by a token bucket ([`BURST`] lines, refilled at [`RATE_PER_S`]
 //! lines/s): a flood of requests or contacts cannot fill the disk. A dropped line is counted and
-//! the next line that is written says how many were dropped before it. The `watch` stream is not
+//! the next line that is written says how many were dropped before it (or, when no change
+//! follows, a line of its own: [`Audit::report_suppressed`]). The `watch` stream is not
 //! thinned (its broadcast channel is bounded on its own; a slow watcher lags and is told so).
 
 use std::sync::Mutex;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
 use fri_api::origin::Origin;
-use fri_api::results::{AuditRecord, Change};
+use fri_api::results::{AuditRecord, Change, StopCause};
 use tokio::sync::broadcast;
 
 /// Lines the log may write at once after a quiet period.
@@ -34,6 +36,8 @@ struct Bucket {
 pub struct Audit {
     bucket: Mutex<Bucket>,
     records: broadcast::Sender<AuditRecord>,
+    /// Records so far, written or not (with those dropped before reaching the trail).
+    recorded: AtomicU64,
 }
 
 impl Default for Audit {
@@ -52,7 +56,14 @@ impl Audit {
                 suppressed: 0,
             }),
             records: broadcast::channel(BACKLOG).0,
+            recorded: AtomicU64::new(0),
         }
+    }
+
+    /// Records so far, written or suppressed (every one is a line or counted in a line's
+    /// `suppressed`).
+    pub fn recorded(&self) -> u64 {
+        self.recorded.load(Ordering::Relaxed)
     }
 
     /// Every following record.
@@ -66,6 +77,7 @@ impl Audit {
         let time_unix_s = SystemTime::now()
             .duration_since(UNIX_EPOCH)
             .map_or(0.0, |d| d.as_secs_f64());
+        self.recorded.fetch_add(1, Ordering::Relaxed);
         let admitted = self.admit();
         let record = AuditRecord {
             time_unix_s,
@@ -80,30 +92,73 @@ impl Audit {
         record
     }
 
-    /// Takes a token: `Some(dropped before)` when the line may be written.
-    fn admit(&self) -> Option<u64> {
-        let mut b = match self.bucket.lock() {
-            Ok(g) => g,
-            Err(p) => p.into_inner(),
-        };
+    /// Counts `n` records that never reached [`Audit::record`] (a full hand-off queue): they
+    /// are reported with the suppressed ones.
+    pub fn note_dropped(&self, n: u64) {
+        self.recorded.fetch_add(n, Ordering::Relaxed);
+        self.with_bucket(|b| b.suppressed = b.suppressed.saturating_add(n));
+    }
+
+    /// Writes one line with the number of records suppressed since the last written line, if
+    /// any were and the bucket has a token: after a flood the count is reported even when no
+    /// further change comes. Returns the count reported.
+    pub fn report_suppressed(&self) -> Option<u64> {
+        let suppressed = self.with_bucket(|b| {
+            if b.suppressed == 0 {
+                return None;
+            }
+            Self::refill(b);
+            (b.tokens >= 1.0).then(|| {
+                b.tokens -= 1.0;
+                std::mem::take(&mut b.suppressed)
+            })
+        })?;
+        tracing::warn!(
+            target: "fri_service::audit",
+            suppressed,
+            "audit records suppressed by the volume bound (every one reached `watch`)"
+        );
+        Some(suppressed)
+    }
+
+    fn with_bucket<R>(&self, f: impl FnOnce(&mut Bucket) -> R) -> R {
+        match self.bucket.lock() {
+            Ok(mut g) => f(&mut g),
+            Err(p) => f(&mut p.into_inner()),
+        }
+    }
+
+    fn refill(b: &mut Bucket) {
         let now = Instant::now();
         let refill = now.duration_since(b.at).as_secs_f64() * RATE_PER_S;
         b.tokens = (b.tokens + refill).min(BURST);
         b.at = now;
-        if b.tokens >= 1.0 {
-            b.tokens -= 1.0;
-            Some(std::mem::take(&mut b.suppressed))
-        } else {
-            b.suppressed += 1;
-            None
-        }
+    }
+
+    /// Takes a token: `Some(dropped before)` when the line may be written.
+    fn admit(&self) -> Option<u64> {
+        self.with_bucket(|b| {
+            Self::refill(b);
+            if b.tokens >= 1.0 {
+                b.tokens -= 1.0;
+                Some(std::mem::take(&mut b.suppressed))
+            } else {
+                b.suppressed += 1;
+                None
+            }
+        })
     }
 }
 
 /// Whether `change` weakens the protection (logged at WARN).
 fn weakens(change: &Change) -> bool {
     match change {
-        Change::Disarmed | Change::Resumed | Change::PayloadDeclaredUnknown { .. } => true,
+        Change::Disarmed
+        | Change::Resumed
+        | Change::ReleasedByService { .. }
+        | Change::MonitorRestarted { .. }
+        | Change::PayloadDeclaredUnknown { .. } => true,
+        Change::HeldByService { cause, .. } => matches!(cause, StopCause::ObserverFault { .. }),
         Change::MonitorConfigured {
             weaker_than_configuration,
             ..
@@ -152,6 +207,24 @@ mod tests {
         }
         let next = audit.record(&o, Change::Resumed);
         assert!(next.suppressed_before >= 45, "{}", next.suppressed_before);
+    }
+
+    #[test]
+    fn suppressed_records_are_reported_without_a_further_change() {
+        let audit = Audit::new();
+        assert_eq!(audit.report_suppressed(), None);
+        // An empty bucket (a token takes a tenth of a second): five records are suppressed,
+        // three more never reached the trail.
+        audit.with_bucket(|b| b.tokens = 0.0);
+        for _ in 0..5 {
+            audit.record(&Origin::Service, Change::Stopped);
+        }
+        audit.note_dropped(3);
+        audit.with_bucket(|b| b.tokens = 0.0);
+        assert_eq!(audit.report_suppressed(), None);
+        audit.with_bucket(|b| b.tokens = 1.0);
+        assert_eq!(audit.report_suppressed(), Some(8));
+        assert_eq!(audit.report_suppressed(), None);
     }
 
     #[test]

@@ -99,7 +99,7 @@ fn an_operator_stop_brakes_to_rest_and_holds_until_resume() {
     assert_eq!(rig.setpoint(), Some(held));
     assert!(rig.has(flags::STOPPED) && !rig.moving() && rig.at_rest());
 
-    rig.send(CycleRequest::Resume);
+    rig.send(CycleRequest::Resume { after_stops: 0 });
     rig.cycle();
     assert_eq!(rig.resumes(), 1);
     assert!(!rig.has(flags::STOPPED));

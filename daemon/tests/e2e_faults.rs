@@ -172,6 +172,75 @@ async fn a_vanished_controller_fails_the_workflow_at_once_with_its_cause() {
     h.stop().await;
 }
 
+/// Issue 20 item 9: `record` with the controller gone fails like `sample` and `tare` do, with
+/// the typed `controller-silent` cause (it reported success with 0 rows after 12 s), and a
+/// recording the controller leaves fails the same way, naming the partial file.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn record_fails_with_controller_silent_when_the_controller_is_gone() {
+    use fri_api::cause::Cause;
+    use fri_api::protocol::RecordKind;
+    let dir = tempfile::tempdir().unwrap();
+    let mut config = test_config(dir.path());
+    config.iceoryx2.enabled = false;
+    let h = Harness::start(config, dir).await;
+    let record = |path: &str, kind: RecordKind, duration_s: f64| Command::Record {
+        path: path.into(),
+        kind,
+        duration_s: Some(duration_s),
+        count: None,
+    };
+    let silent = |e: &fri_api::protocol::OperatorError| {
+        matches!(e.cause.as_deref(), Some(Cause::ControllerSilent { .. }))
+    };
+    let mut c = h.client().await;
+    // No controller yet: refused at once, like `sample`, and no file is created.
+    let sample = call(&mut c, Command::Sample { duration_s: None })
+        .await
+        .unwrap_err();
+    assert!(silent(&sample), "{sample:?}");
+    for (name, kind) in [
+        ("none.csv", RecordKind::Log),
+        ("none.mcap", RecordKind::Mcap),
+    ] {
+        let e = call(&mut c, record(name, kind, 1.0)).await.unwrap_err();
+        assert_eq!(e.code, sample.code, "{e:?}");
+        assert!(silent(&e), "{e:?}");
+        assert!(!h.dir.path().join("state/recordings").join(name).exists());
+    }
+    // A controller that vanishes during the recordings ends them with the same cause.
+    let driver = mock_robot::spawn_new(
+        sim(false, 23),
+        ServerConfig::loopback(h.fri, TimingMode::RealTime),
+    )
+    .unwrap();
+    wait_connected(&mut c).await;
+    let mut recordings = Vec::new();
+    for (name, kind) in [("cut.csv", RecordKind::Log), ("cut.mcap", RecordKind::Mcap)] {
+        let mut recorder = h.client().await;
+        let request = record(name, kind, 30.0);
+        recordings.push((
+            name,
+            tokio::spawn(async move { call(&mut recorder, request).await }),
+        ));
+    }
+    // Both are running (sequencing only: nothing is asserted about this time).
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    tokio::task::spawn_blocking(move || drop(driver.join()))
+        .await
+        .unwrap();
+    for (name, recording) in recordings {
+        // Long before the 30 s asked for (and the 70 s wall bound), not a timing figure.
+        let e = tokio::time::timeout(Duration::from_secs(20), recording)
+            .await
+            .unwrap_or_else(|_| panic!("{name}: still recording after the controller left"))
+            .unwrap()
+            .unwrap_err();
+        assert!(silent(&e), "{name}: {e:?}");
+        assert!(e.message.contains(name), "{e:?}");
+    }
+    h.stop().await;
+}
+
 /// After a controller restart no published residual comes from an unsynchronised observer:
 /// it is `null` (NaN, flagged) during the warm-up and small otherwise.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -96,7 +96,7 @@ async fn bind_refuses_to_remove_anything_but_a_stale_socket() {
     std::fs::write(&file, "keep me").unwrap();
     let e = server::bind(&file).await.unwrap_err().to_string();
     assert!(
-        e.contains("operator.socket") && e.contains("regular file"),
+        e.contains("precious.txt") && e.contains("regular file"),
         "{e}"
     );
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "keep me");
@@ -104,10 +104,7 @@ async fn bind_refuses_to_remove_anything_but_a_stale_socket() {
     let sub = dir.path().join("a-directory");
     std::fs::create_dir(&sub).unwrap();
     let e = server::bind(&sub).await.unwrap_err().to_string();
-    assert!(
-        e.contains("operator.socket") && e.contains("directory"),
-        "{e}"
-    );
+    assert!(e.contains("a-directory") && e.contains("directory"), "{e}");
     assert!(sub.is_dir());
 
     // A symlink, even to a stale socket, is not removed (nor is its target).
@@ -117,7 +114,7 @@ async fn bind_refuses_to_remove_anything_but_a_stale_socket() {
     std::os::unix::fs::symlink(&stale, &link).unwrap();
     let e = server::bind(&link).await.unwrap_err().to_string();
     assert!(
-        e.contains("operator.socket") && e.contains("symbolic link"),
+        e.contains("link.sock") && e.contains("symbolic link"),
         "{e}"
     );
     assert!(std::fs::symlink_metadata(&link).is_ok() && stale.exists());

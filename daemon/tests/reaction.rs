@@ -406,7 +406,7 @@ fn an_undeclared_grasp_trips_and_a_declaration_then_resume_releases() {
     assert!(stopped_by_collision(&events), "{events:?}");
     rig.declare();
     rig.run(50);
-    rig.send(CycleRequest::Resume);
+    rig.send(CycleRequest::Resume { after_stops: 0 });
     let events = rig.run(100);
     assert!(!rig.processor.is_holding(), "{events:?}");
     assert!(!events.iter().any(|e| matches!(e, CycleEvent::Collision(_))));
@@ -486,7 +486,7 @@ fn samples_no_flange_load_explains_across_the_poses_are_a_contact() {
     rig.declare();
     rig.run(50);
     rig.send(CycleRequest::PayloadHypothesis(h));
-    rig.send(CycleRequest::Resume);
+    rig.send(CycleRequest::Resume { after_stops: 0 });
     let events = rig.run(100);
     assert!(!rig.processor.is_holding(), "{events:?}");
 }
@@ -691,7 +691,7 @@ proptest! {
                     rig.send(CycleRequest::SetPayload(None));
                 }
                 Op::Stop => rig.send(CycleRequest::Stop),
-                Op::Resume => rig.send(CycleRequest::Resume),
+                Op::Resume => rig.send(CycleRequest::Resume { after_stops: 0 }),
                 Op::Grasp => rig.carried = true,
                 Op::Release => rig.carried = false,
                 Op::Contact(j, t) => rig.external[j] = t,
@@ -765,7 +765,7 @@ proptest! {
                     }
                 }
                 CleanOp::Stop => rig.send(CycleRequest::Stop),
-                CleanOp::Resume => rig.send(CycleRequest::Resume),
+                CleanOp::Resume => rig.send(CycleRequest::Resume { after_stops: 0 }),
                 CleanOp::Disarm => rig.send(CycleRequest::Arm(false)),
                 CleanOp::Arm => rig.send(CycleRequest::Arm(true)),
                 CleanOp::Idle => {}

@@ -4,7 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::handshake::{HandshakeRequest, HandshakeStatus};
-use crate::session::{Arrival, SessionStatistics};
+use crate::session::{Arrival, PendingResync, SessionStatistics};
 use crate::wire::{
     Command, ControlStrategy, Frame, InterfaceState, InterfaceStatistics, JOINTS, KRL_VALUES,
     Measurement, Quality,
@@ -55,6 +55,11 @@ pub struct EndpointState {
     /// published this state, s (0 before the first). Only this thread can tell a silent
     /// controller from a host that kept the service's own threads from running.
     pub silence_s: f64,
+    /// Datagrams refused since the newest accepted one that the session accepts once the bound
+    /// controller has been silent for `resync_after` (a restarted controller, or one on a new
+    /// source), as of the publication; `None` when nothing waits.
+    #[serde(default)]
+    pub resync: Option<PendingResync>,
 }
 
 impl Default for EndpointState {
@@ -70,6 +75,7 @@ impl Default for EndpointState {
             endpoint: EndpointCounters::default(),
             cycle: 0,
             silence_s: 0.0,
+            resync: None,
         }
     }
 }

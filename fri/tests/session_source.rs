@@ -10,7 +10,9 @@ use std::net::SocketAddr;
 use std::time::{Duration, Instant};
 
 use common::base_measurement;
-use fri::session::{Arrival, DesiredCommand, Rejection, ReplyError, Session, SessionConfig};
+use fri::session::{
+    Arrival, DesiredCommand, Rejection, ReplyError, ResyncKind, Session, SessionConfig,
+};
 use fri::wire::{CMD_LEN, InterfaceState, MSR_LEN, Measurement};
 use proptest::prelude::*;
 
@@ -195,10 +197,26 @@ fn a_real_restart_is_accepted_once_the_old_counter_has_been_silent_for_resync_af
             Err(r) => {
                 assert_eq!(r, Rejection::OutOfWindow { seq, newest: 5009 });
                 assert!(now.duration_since(last_accepted) <= config.resync_after);
+                // Meanwhile the session says it is re-synchronising, and for how long.
+                let silence = now.duration_since(last_accepted);
+                match rig.session.pending_resync(now) {
+                    Some(p) if silence < config.resync_after => {
+                        assert_eq!(
+                            (p.kind, p.source, p.refused),
+                            (ResyncKind::Restart, genuine(), u64::from(seq) + 1)
+                        );
+                        let left = (config.resync_after - silence).as_secs_f64();
+                        assert!((p.remaining_s - left).abs() < 1e-9, "{p:?}");
+                        assert_eq!(p.resync_after_s, 0.05);
+                    }
+                    None if silence == config.resync_after => {}
+                    other => panic!("{silence:?}: {other:?}"),
+                }
             }
         }
         seq += 1;
     }
+    assert_eq!(rig.session.pending_resync(rig.t), None);
     assert!(rig.t.duration_since(last_accepted) > config.resync_after);
     assert_eq!(seq, 50);
     assert_eq!(rig.session.last_arrival(), Some(Arrival::Restart));
@@ -226,18 +244,27 @@ fn a_new_source_is_bound_only_after_the_bound_one_fell_silent_and_as_a_new_epoch
     };
     let mut rig = Rig::new(config);
     rig.cycle(&plain(7), genuine());
+    let bound_at = rig.t;
     // 40 ms of silence: not enough.
     rig.tick(Duration::from_millis(40));
     assert_eq!(
         rig.offer(&plain(1), foreign_port()),
         Err(Rejection::UnexpectedSource(foreign_port()))
     );
+    let p = rig.session.pending_resync(rig.t).unwrap();
+    assert_eq!(
+        (p.kind, p.source, p.refused),
+        (ResyncKind::NewSource, foreign_port(), 1)
+    );
+    let left = (config.resync_after - rig.t.duration_since(bound_at)).as_secs_f64();
+    assert!((p.remaining_s - left).abs() < 1e-9, "{p:?}");
     // Past 50 ms of silence since the last accepted datagram: re-bound, a new epoch.
     rig.tick(Duration::from_millis(10));
     let info = rig.cycle(&plain(2), foreign_port());
     assert_eq!(info.destination, foreign_port());
     assert_eq!(info.refl_seq_count, 2);
     assert_eq!(rig.session.bound_controller(), Some(foreign_port()));
+    assert_eq!(rig.session.pending_resync(rig.t), None);
     assert_eq!(rig.session.last_arrival(), Some(Arrival::Rebind));
     assert!(Arrival::Rebind.starts_epoch());
     // From now on the old source is the foreign one.
@@ -268,6 +295,12 @@ fn re_binding_never_leaves_the_configured_address_filter() {
     );
     assert_eq!(rig.session.bound_controller(), None);
     rig.cycle(&plain(2), genuine());
+    // A host outside the filter is never waiting for a re-synchronisation.
+    assert_eq!(
+        rig.offer(&plain(3), foreign_host()),
+        Err(Rejection::UnexpectedSource(foreign_host()))
+    );
+    assert_eq!(rig.session.pending_resync(rig.t), None);
     rig.tick(Duration::from_secs(10));
     assert_eq!(
         rig.offer(&plain(3), foreign_host()),

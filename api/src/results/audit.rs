@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::origin::Origin;
 use crate::protocol::ReactionMode;
+use crate::results::{ResyncReason, StopCause};
 
 /// One safety-relevant change and its origin.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -94,6 +95,24 @@ pub enum Change {
         /// Residual at the onset, Nm (joints 1..7).
         residual: [f64; 7],
     },
+    /// The service held the arm on its own: the armed collision reaction, or an observer fault
+    /// (the monitor could no longer vouch for the arm).
+    HeldByService {
+        /// Why, with its data.
+        cause: StopCause,
+        /// Operator-facing text of the cause.
+        detail: String,
+    },
+    /// The service released the arm on its own.
+    ReleasedByService {
+        /// Why.
+        reason: ReleaseReason,
+    },
+    /// The collision monitor restarted: no contact is detected until its warm-up ends (50 ms).
+    MonitorRestarted {
+        /// Why.
+        reason: ResyncReason,
+    },
     /// Settings restored at start from the state directory.
     Restored {
         /// Which file (`monitor.json`, `payload.json`, …).
@@ -101,6 +120,16 @@ pub enum Change {
         /// What makes the restored settings weaker than the configuration file's (empty: none).
         weaker_than_configuration: Vec<String>,
     },
+}
+
+/// Why the service released the arm on its own.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ReleaseReason {
+    /// The `pause` reaction's pause elapsed: the interrupted move continues.
+    PauseElapsed,
+    /// The contact a latched `resume` waited for ended.
+    ContactEnded,
 }
 
 impl std::fmt::Display for Change {
@@ -163,6 +192,20 @@ impl std::fmt::Display for Change {
                 f,
                 "collision on link {link}, residual [Nm] {}",
                 values(residual, 2)
+            ),
+            Change::HeldByService { detail, .. } => write!(f, "arm held by the service: {detail}"),
+            Change::ReleasedByService { reason } => match reason {
+                ReleaseReason::PauseElapsed => {
+                    f.write_str("arm released by the service: the reaction's pause elapsed")
+                }
+                ReleaseReason::ContactEnded => f.write_str(
+                    "arm released by the service: the contact a latched resume waited for ended",
+                ),
+            },
+            Change::MonitorRestarted { reason } => write!(
+                f,
+                "collision monitor restarted ({}): blind until its warm-up ends",
+                reason.describe()
             ),
             Change::Restored {
                 file,

@@ -26,11 +26,11 @@ mod tare;
 mod watch;
 
 /// The FRI types inside [`FriStatus`], re-exported so clients need not depend on `fri`.
-pub use fri::session::{RejectionCounters, SessionStatistics};
+pub use fri::session::{PendingResync, RejectionCounters, ResyncKind, SessionStatistics};
 /// The controller's statistics inside [`FriStatus`] and [`crate::fri_context::FriContext`].
 pub use fri::wire::InterfaceStatistics;
 
-pub use audit::{AuditRecord, Change};
+pub use audit::{AuditRecord, Change, ReleaseReason};
 pub use calibrate::{CalibrateResult, JointFit, LinkForce};
 pub use collision::{CalibrationInfo, CollisionResult, MonitorSettings, ThresholdSchedule};
 pub use estimate::{

@@ -1,6 +1,6 @@
 //! `status`: the controller link, the newest published state, payload and monitor.
 
-use fri::session::SessionStatistics;
+use fri::session::{PendingResync, SessionStatistics};
 use fri::wire::InterfaceStatistics;
 use serde::{Deserialize, Serialize};
 
@@ -99,4 +99,9 @@ pub struct FriStatus {
     pub statistics: SessionStatistics,
     /// The controller's statistics of our answers (rates 0…1, latency and jitter in s).
     pub controller_statistics: InterfaceStatistics,
+    /// While the controller is not connected: datagrams of a restarted controller (or of one on
+    /// a new source) that the session refuses until the bound one has been silent for
+    /// `fri.resync_after_s`, and how long that still takes (absent when nothing waits).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub resync: Option<PendingResync>,
 }

@@ -1,7 +1,8 @@
 //! `fri-ctl` operator subcommands, one file per operator-socket command (clap arguments →
 //! request, call, typed result → text): human-readable output with units and a progress bar on
 //! long workflows, `--json` for scripts (the service's JSON as sent), and exit codes per error
-//! class. The service's socket is the global `--socket` (or `FRI_SERVICE_SOCKET`).
+//! class. The service's socket is the global `--socket` (or `FRI_SERVICE_SOCKET`); `stop` goes
+//! to the stop socket beside it (`--stop-socket`, `FRI_SERVICE_STOP_SOCKET`).
 
 mod apply_payload;
 mod clear_payload;
@@ -77,6 +78,24 @@ pub struct ServiceOptions {
         default_value = DEFAULT_SOCKET
     )]
     pub socket: PathBuf,
+    /// The service's stop socket, used by `stop` only (default: beside the operator socket,
+    /// `.stop` before its extension, as the service's `operator.stop_socket` defaults).
+    #[arg(
+        long,
+        global = true,
+        value_name = "PATH",
+        env = "FRI_SERVICE_STOP_SOCKET"
+    )]
+    pub stop_socket: Option<PathBuf>,
+}
+
+impl ServiceOptions {
+    /// The stop socket: `--stop-socket`, or beside `--socket`.
+    pub fn stop_socket_path(&self) -> PathBuf {
+        self.stop_socket
+            .clone()
+            .unwrap_or_else(|| fri_api::stop_socket_beside(&self.socket))
+    }
 }
 
 /// `--json` of every operator subcommand.
@@ -159,7 +178,7 @@ pub fn run(cmd: &OperatorCommand, options: &ServiceOptions, out: &mut Stdout) ->
             runner::run(&collision_calibrate::Calibrate(a), socket, out)
         }
         O::Collision(a) => runner::run(a, socket, out),
-        O::Stop(a) => runner::run(a, socket, out),
+        O::Stop(a) => stop::run(a, options, out),
         O::Resume(a) => runner::run(a, socket, out),
         O::Record(a) => runner::run(a, socket, out),
         O::Watch(a) => runner::run(a, socket, out),

@@ -49,6 +49,8 @@ pub(crate) trait Operation {
 
 /// How a call ended.
 enum Outcome<R> {
+    /// The service could not be reached.
+    Unreachable(ClientError),
     /// A typed result.
     Typed(R),
     /// A raw result (`--json`, or a result that did not decode).
@@ -61,6 +63,18 @@ enum Outcome<R> {
 
 /// Runs `op` against the service at `socket`, writing to `out`; returns the exit status.
 pub(crate) fn run<O: Operation>(op: &O, socket: &Path, out: &mut Stdout) -> u8 {
+    run_retrying(op, socket, Duration::ZERO, out)
+}
+
+/// [`run`], connecting again for up to `retry_for` while the attempt fails in a way another
+/// attempt can mend: the service is `busy` (a flood of connections), the socket's backlog is
+/// full, or the connection closed before the reply. Only for idempotent requests (`stop`).
+pub(crate) fn run_retrying<O: Operation>(
+    op: &O,
+    socket: &Path,
+    retry_for: Duration,
+    out: &mut Stdout,
+) -> u8 {
     let command = match op.request() {
         Ok(c) => c,
         Err(e) => {
@@ -78,7 +92,27 @@ pub(crate) fn run<O: Operation>(op: &O, socket: &Path, out: &mut Stdout) -> u8 {
             return EXIT_FAILED;
         }
     };
-    runtime.block_on(run_async(op, command, socket, out))
+    runtime.block_on(async {
+        let give_up = tokio::time::Instant::now() + retry_for;
+        let mut pause = Duration::from_millis(5);
+        loop {
+            let outcome = attempt(op, command.clone(), socket, out).await;
+            let again = match &outcome {
+                Some(Outcome::Refused(e)) => e.code == fri_api::protocol::ErrorCode::Busy,
+                Some(Outcome::Unreachable(ClientError::Io { source, .. })) => {
+                    source.kind() == io::ErrorKind::WouldBlock
+                }
+                Some(Outcome::Transport(_)) => true,
+                _ => false,
+            };
+            if again && tokio::time::Instant::now() + pause < give_up {
+                tokio::time::sleep(pause).await;
+                pause = (pause * 2).min(Duration::from_millis(100));
+                continue;
+            }
+            return report(op, outcome, socket, out);
+        }
+    })
 }
 
 fn progress_bar() -> ProgressBar {
@@ -105,16 +139,16 @@ fn advance(bar: &ProgressBar, event: &Event) {
     bar.set_message(phase);
 }
 
-async fn run_async<O: Operation>(op: &O, command: Command, socket: &Path, out: &mut Stdout) -> u8 {
+/// One connection and call; `None` when writing an event to stdout failed.
+async fn attempt<O: Operation>(
+    op: &O,
+    command: Command,
+    socket: &Path,
+    out: &mut Stdout,
+) -> Option<Outcome<O::Output>> {
     let mut client = match Client::connect(socket).await {
         Ok(c) => c,
-        Err(e) => {
-            stderr_line(format_args!(
-                "error: cannot reach the service at {}: {e} (is fri-service running? see --socket and FRI_SERVICE_SOCKET)",
-                socket.display()
-            ));
-            return EXIT_UNREACHABLE;
-        }
+        Err(e) => return Some(Outcome::Unreachable(e)),
     };
     let json = op.json();
     let bar = (op.shows_progress() && !json).then(progress_bar);
@@ -172,6 +206,17 @@ async fn run_async<O: Operation>(op: &O, command: Command, socket: &Path, out: &
     if let Some(b) = bar {
         b.finish_and_clear();
     }
+    outcome
+}
+
+/// Prints how the call ended and chooses the exit status.
+fn report<O: Operation>(
+    op: &O,
+    outcome: Option<Outcome<O::Output>>,
+    socket: &Path,
+    out: &mut Stdout,
+) -> u8 {
+    let json = op.json();
     let failed = |out: &Stdout| {
         out.failure()
             .map_or(EXIT_FAILED, |f| f.exit_code(EXIT_FAILED))
@@ -203,6 +248,13 @@ async fn run_async<O: Operation>(op: &O, command: Command, socket: &Path, out: &
         }
         Outcome::Transport(e) => {
             stderr_line(format_args!("error: {e}"));
+            (Ok(()), EXIT_UNREACHABLE)
+        }
+        Outcome::Unreachable(e) => {
+            stderr_line(format_args!(
+                "error: cannot reach the service at {}: {e} (is fri-service running? see --socket and FRI_SERVICE_SOCKET)",
+                socket.display()
+            ));
             (Ok(()), EXIT_UNREACHABLE)
         }
     };

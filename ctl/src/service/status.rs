@@ -5,7 +5,7 @@ use std::io::{self, Write};
 use clap::Args;
 
 use fri_api::protocol::Command;
-use fri_api::results::{RejectionCounters, ServiceState, StatusResult, StopCause};
+use fri_api::results::{RejectionCounters, ResyncKind, ServiceState, StatusResult, StopCause};
 
 use super::JsonFlag;
 use super::format::{fixed, joint_header, joint_row, joint_row_deg, ms, percent, xyz_mm, yes_no};
@@ -49,12 +49,28 @@ impl Operation for StatusArgs {
 
 /// Writes the human-readable status.
 pub(super) fn print(r: &StatusResult, out: &mut dyn Write) -> io::Result<()> {
-    let link = if r.connected {
-        "connected"
-    } else {
-        "NOT connected (no measurement within the timeout)"
-    };
-    writeln!(out, "controller     {link}")?;
+    let resync = r.fri.as_ref().and_then(|f| f.resync.as_ref());
+    match (r.connected, resync) {
+        (true, _) => writeln!(out, "controller     connected")?,
+        (false, Some(p)) => {
+            let who = match p.kind {
+                ResyncKind::Restart => "a restarted controller",
+                ResyncKind::NewSource => "a controller on a new address or port",
+            };
+            writeln!(
+                out,
+                "controller     RESYNCHRONISING with {who} ({}): {} datagrams refused so far, accepted in {} s (fri.resync_after_s = {} s of silence of the previous one)",
+                p.source,
+                p.refused,
+                fixed(p.remaining_s, 2),
+                fixed(p.resync_after_s, 2)
+            )?;
+        }
+        (false, None) => writeln!(
+            out,
+            "controller     NOT connected (no measurement within the timeout)"
+        )?,
+    }
     match &r.state {
         Some(ServiceState::Stopped { cause, .. } | ServiceState::Fault { cause, .. }) => {
             let why = match cause {
@@ -222,6 +238,31 @@ mod tests {
         );
         assert!(
             !line.contains("duplicate") && !line.contains("empty"),
+            "{line}"
+        );
+    }
+
+    #[test]
+    fn status_says_it_is_resynchronising_and_for_how_long() {
+        let mut r = status(zero_rejections());
+        r.connected = false;
+        let text_of = |r: &StatusResult| text(r).lines().next().unwrap_or_default().to_owned();
+        assert!(text_of(&r).contains("NOT connected"), "{}", text_of(&r));
+        if let Some(f) = &mut r.fri {
+            f.resync = Some(fri_api::results::PendingResync {
+                kind: ResyncKind::Restart,
+                source: "127.0.0.1:49938".parse().unwrap(),
+                refused: 420,
+                remaining_s: 0.58,
+                resync_after_s: 1.0,
+            });
+        }
+        let line = text_of(&r);
+        assert!(
+            line.contains("RESYNCHRONISING with a restarted controller")
+                && line.contains("420 datagrams refused")
+                && line.contains("accepted in 0.58 s")
+                && line.contains("fri.resync_after_s = 1.00 s"),
             "{line}"
         );
     }

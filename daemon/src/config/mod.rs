@@ -10,7 +10,7 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-pub use fri_api::{DEFAULT_SOCKET, JOINTS};
+pub use fri_api::{DEFAULT_SOCKET, JOINTS, stop_socket_beside};
 
 /// Errors while loading or validating the configuration.
 #[derive(Debug, thiserror::Error)]
@@ -282,6 +282,10 @@ impl Default for UnknownPayloadConfig {
 pub struct OperatorConfig {
     /// Unix socket path (default `/run/fri-service/operator.sock`, [`DEFAULT_SOCKET`]).
     pub socket: PathBuf,
+    /// The stop socket: accepts only `stop`, with its own connections, so that no other client
+    /// can occupy the stop path (default: beside `socket`, `.stop` before its extension, e.g.
+    /// `/tmp/fri-service/operator.stop.sock`; same mode and peer-credential policy).
+    pub stop_socket: Option<PathBuf>,
     /// User ids allowed to connect besides root and the service's own user (default none).
     pub allowed_uids: Vec<u32>,
     /// Group ids allowed to connect (default none).
@@ -299,6 +303,7 @@ impl Default for OperatorConfig {
     fn default() -> Self {
         Self {
             socket: PathBuf::from(DEFAULT_SOCKET),
+            stop_socket: None,
             allowed_uids: Vec::new(),
             allowed_gids: Vec::new(),
             max_line_bytes: 65536,
@@ -327,6 +332,15 @@ fn state_dir_from(env: Option<std::ffi::OsString>) -> PathBuf {
         path.is_absolute().then_some(path)
     })
     .unwrap_or_else(|| PathBuf::from(DEFAULT_STATE_DIR))
+}
+
+impl OperatorConfig {
+    /// The stop socket's path: `stop_socket`, or beside `socket`.
+    pub fn stop_socket_path(&self) -> PathBuf {
+        self.stop_socket
+            .clone()
+            .unwrap_or_else(|| stop_socket_beside(&self.socket))
+    }
 }
 
 /// Persistent state settings.

@@ -119,6 +119,28 @@ fn bad_values_name_the_key() {
         invalid_key("[iceoryx2]\nglobal_prefix = \"a b\"\n"),
         "iceoryx2.global_prefix"
     );
+    assert_eq!(
+        invalid_key("[operator]\nstop_socket = \"\"\n"),
+        "operator.stop_socket"
+    );
+    assert_eq!(
+        invalid_key("[operator]\nsocket = \"/run/a.sock\"\nstop_socket = \"/run/a.sock\"\n"),
+        "operator.stop_socket"
+    );
+}
+
+#[test]
+fn the_stop_socket_defaults_to_beside_the_operator_socket() {
+    let c = Config::from_toml("[operator]\nsocket = \"/run/lwr/op.sock\"\n").unwrap();
+    assert_eq!(
+        c.operator.stop_socket_path(),
+        PathBuf::from("/run/lwr/op.stop.sock")
+    );
+    let c = Config::from_toml("[operator]\nstop_socket = \"/run/lwr/stop\"\n").unwrap();
+    assert_eq!(
+        c.operator.stop_socket_path(),
+        PathBuf::from("/run/lwr/stop")
+    );
 }
 
 fn invalid(text: &str) -> (String, String) {

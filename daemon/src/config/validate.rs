@@ -187,6 +187,18 @@ impl Config {
             "must not be empty",
         )?;
         let op = &self.operator;
+        check(
+            "operator.stop_socket",
+            op.stop_socket
+                .as_ref()
+                .is_none_or(|p| !p.as_os_str().is_empty()),
+            "must not be empty",
+        )?;
+        check(
+            "operator.stop_socket",
+            op.stop_socket_path() != op.socket,
+            "must differ from operator.socket",
+        )?;
         count_in_range(
             "operator.max_line_bytes",
             op.max_line_bytes,

@@ -148,8 +148,8 @@ pub enum ServerError {
     InUse(std::path::PathBuf),
     /// Something other than a socket exists at the path; it is never removed.
     #[error(
-        "operator.socket {path} is a {found}, not a socket; refusing to replace it (remove it or \
-         choose another operator.socket)"
+        "{path} is a {found}, not a socket; refusing to replace it (remove it or choose another \
+         path)"
     )]
     NotASocket {
         /// The path.
@@ -159,7 +159,7 @@ pub enum ServerError {
     },
     /// A socket file exists but connecting failed for another reason than "nobody listens", so
     /// it cannot be called stale.
-    #[error("operator.socket {path}: cannot tell whether the existing socket is stale: {source}")]
+    #[error("{path}: cannot tell whether the existing socket is stale: {source}")]
     Unprobeable {
         /// The path.
         path: std::path::PathBuf,

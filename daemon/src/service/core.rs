@@ -68,6 +68,8 @@ pub struct ServiceCore {
     pub(crate) model: Model<7>,
     pub(crate) shared: Arc<Shared>,
     pub(crate) rt: SyncSender<CycleRequest>,
+    /// The operator's stops, outside `rt` (no queued request delays them).
+    pub(crate) stop_latch: super::cycle::StopLatch,
     pub(crate) store: StateStore,
     pub(crate) state: Mutex<Persistent>,
     pub(crate) workflow: tokio::sync::Mutex<()>,
@@ -137,7 +139,9 @@ impl ServiceCore {
     /// Assembles the service; `payload`/`tare`/`monitor` are what was reloaded from the state
     /// directory. `config` is the configuration file's: the stored monitor settings are put in
     /// force over it ([`crate::service::with_stored_monitor`]), and it stays what
-    /// [`Self::weaker_than_configuration`] compares them with.
+    /// [`Self::weaker_than_configuration`] compares them with; `audit` is the trail the stream
+    /// thread writes the loop's own changes to; `stop_latch` is the loop's
+    /// ([`super::cycle::StopLatch`]).
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         config: Config,
@@ -150,6 +154,8 @@ impl ServiceCore {
         monitor: Option<StoredMonitor>,
         ipc: Option<IpcSender>,
         fri_state: Option<FriStateSource>,
+        audit: Arc<crate::audit::Audit>,
+        stop_latch: super::cycle::StopLatch,
     ) -> Self {
         let payload_origin = payload.map(|_| fri_api::origin::Origin::Restored);
         let in_force = monitor
@@ -174,13 +180,14 @@ impl ServiceCore {
             model,
             shared,
             rt,
+            stop_latch,
             store,
             state: Mutex::new(state),
             workflow: tokio::sync::Mutex::new(()),
             ipc,
             fri_state,
             calibration_recording: Mutex::new(None),
-            audit: Arc::new(crate::audit::Audit::new()),
+            audit,
         }
     }
 

@@ -167,7 +167,9 @@ impl Handler for Dispatcher {
             }
             Command::Resume => {
                 let result = s.resume().await;
-                if result.is_ok() {
+                // Only a release is one: a resume that waits for the contact to end is
+                // recorded when it releases the arm (`released-by-service`).
+                if result.as_ref().is_ok_and(|r| !r.stopped) {
                     s.audit.record(&origin, Change::Resumed);
                 }
                 reply(result)

@@ -10,6 +10,7 @@
 pub mod core;
 pub mod cycle;
 pub mod dispatch;
+pub mod loop_audit;
 pub mod output;
 pub mod pattern;
 pub mod replay;
@@ -33,6 +34,7 @@ use tokio::sync::watch;
 use crate::config::{Config, ReactionMode};
 use crate::ipc::{IpcNames, IpcThread};
 use crate::operator::server::{self, AccessPolicy, ServerLimits};
+use crate::operator::stop_socket::{self, StopLimits};
 use crate::persistence::lock::InstanceLock;
 use crate::persistence::{AppliedPayload, StateStore, StoredMonitor};
 use core::{ServiceCore, compensation};
@@ -102,8 +104,34 @@ pub fn with_stored_monitor(config: &Config, m: &StoredMonitor) -> Config {
     c
 }
 
+/// Records what the configuration file puts in force at start (`Origin::Configuration`): the
+/// arming, and the monitor's settings unless `collision configure` stored its own (those are
+/// recorded as restored).
+fn audit_configuration(audit: &crate::audit::Audit, config: &Config, stored_monitor: bool) {
+    use fri_api::origin::Origin;
+    use fri_api::results::Change;
+    let origin = Origin::Configuration;
+    if !stored_monitor {
+        audit.record(
+            &origin,
+            Change::MonitorConfigured {
+                thresholds: config.observer.thresholds,
+                gains: config.observer.gains,
+                reaction: config.reaction.policy,
+                weaker_than_configuration: Vec::new(),
+            },
+        );
+    }
+    let arming = if config.observer.armed {
+        Change::Armed
+    } else {
+        Change::Disarmed
+    };
+    audit.record(&origin, arming);
+}
+
 /// A running service: endpoint, fan-out and iceoryx2 threads, the shared core, the bound
-/// operator socket and the state directory's instance lock.
+/// operator and stop sockets and the state directory's instance lock.
 pub struct RunningService {
     /// The core shared with the operator handler.
     pub core: Arc<ServiceCore>,
@@ -112,6 +140,8 @@ pub struct RunningService {
     stream: Option<std::thread::JoinHandle<()>>,
     /// Bound at start, served by [`RunningService::serve_operator`].
     listener: Mutex<Option<std::os::unix::net::UnixListener>>,
+    /// The stop socket, bound at start like the operator socket.
+    stop_listener: Mutex<Option<std::os::unix::net::UnixListener>>,
     /// Held until the loop has stopped.
     lock: Option<InstanceLock>,
 }
@@ -168,7 +198,11 @@ impl RunningService {
         };
         // Checked now so a bad `state.record_dir` stops the start, not a recording.
         crate::recordings::RecordDir::open(&config.state.record_dir())?;
-        let listener = crate::operator::listener::bind(&config.operator.socket)?;
+        let listener = crate::operator::listener::bind(&config.operator.socket)
+            .with_context(|| format!("operator.socket {}", config.operator.socket.display()))?;
+        let stop_path = config.operator.stop_socket_path();
+        let stop_listener = crate::operator::listener::bind(&stop_path)
+            .with_context(|| format!("operator.stop_socket {}", stop_path.display()))?;
 
         let (ipc_thread, ipc) = if config.iceoryx2.enabled {
             let names = IpcNames {
@@ -182,9 +216,10 @@ impl RunningService {
         };
 
         let shared = stream::Shared::new();
+        let audit = Arc::new(crate::audit::Audit::new());
         let (event_tx, event_rx) = sync_channel(EVENT_QUEUE);
         let (request_tx, request_rx) = sync_channel(REQUEST_QUEUE);
-        let stream = stream::spawn(event_rx, shared.clone(), ipc.clone())
+        let stream = stream::spawn(event_rx, shared.clone(), ipc.clone(), audit.clone())
             .context("starting the stream thread")?;
 
         let schedule = stored_monitor.as_ref().and_then(|m| m.schedule.as_ref());
@@ -192,6 +227,7 @@ impl RunningService {
             .context("observer configuration")?;
         let settings = ProcessorSettings::from_config(&effective);
         let processor = CycleProcessor::new(settings, monitor, request_rx, event_tx);
+        let stop_latch = processor.stop_latch();
         if let Some(p) = &payload {
             request_tx
                 .try_send(CycleRequest::SetPayload(Some(compensation(p))))
@@ -209,6 +245,7 @@ impl RunningService {
         ec.socket.receive_timeout = core::connection_timeout(config.fri.cycle_s) / 4;
         let endpoint =
             Arc::new(Endpoint::spawn(ec, processor).map_err(|e| endpoint_error(e, &config))?);
+        audit_configuration(&audit, &config, stored_monitor.is_some());
         // A weak handle: the core must not keep the loop alive after shutdown.
         let source = Arc::downgrade(&endpoint);
         let restored = Restored {
@@ -229,6 +266,8 @@ impl RunningService {
             Some(Arc::new(move || {
                 source.upgrade().map(|e| e.latest()).unwrap_or_default()
             })),
+            audit,
+            stop_latch,
         ));
         restored.audit(&core);
         Ok(Self {
@@ -237,6 +276,7 @@ impl RunningService {
             ipc: ipc_thread,
             stream: Some(stream),
             listener: Mutex::new(Some(listener)),
+            stop_listener: Mutex::new(Some(stop_listener)),
             lock: Some(lock),
         })
     }
@@ -252,11 +292,19 @@ impl RunningService {
     /// [`LEAVE_COMMAND_TIMEOUT`]).
     pub async fn serve_operator(&self, shutdown: watch::Receiver<bool>) -> anyhow::Result<()> {
         let c = &self.core.config().operator;
-        let bound = match self.listener.lock() {
+        let take = |m: &Mutex<Option<std::os::unix::net::UnixListener>>| match m.lock() {
             Ok(mut l) => l.take(),
             Err(p) => p.into_inner().take(),
         };
-        let bound = bound.context("the operator socket is already being served")?;
+        let (bound, stop_bound) = (take(&self.listener), take(&self.stop_listener));
+        let (bound, stop_bound) = bound
+            .zip(stop_bound)
+            .context("the operator socket is already being served")?;
+        // The stop path first: by the time the operator socket answers, `stop` has its own.
+        let stop_path = c.stop_socket_path();
+        let stop_listener = tokio::net::UnixListener::from_std(stop_bound)
+            .with_context(|| format!("operator.stop_socket {}", stop_path.display()))?;
+        tracing::info!(socket = %stop_path.display(), "stop socket listening");
         let listener = tokio::net::UnixListener::from_std(bound)
             .with_context(|| format!("operator.socket {}", c.socket.display()))?;
         tracing::info!(socket = %c.socket.display(), "operator socket listening");
@@ -278,15 +326,18 @@ impl RunningService {
                 let _ = core.send(CycleRequest::Shutdown);
             }
         };
-        let serving = server::serve(
-            listener,
-            Arc::new(Dispatcher(self.core.clone())),
-            policy,
-            limits,
-            shutdown,
+        let dispatcher = Arc::new(Dispatcher(self.core.clone()));
+        let stopping = stop_socket::serve(
+            stop_listener,
+            dispatcher.clone(),
+            policy.clone(),
+            StopLimits::default(),
+            shutdown.clone(),
         );
-        tokio::join!(serving, brake);
+        let serving = server::serve(listener, dispatcher, policy, limits, shutdown);
+        tokio::join!(serving, stopping, brake);
         let _ = std::fs::remove_file(&c.socket);
+        let _ = std::fs::remove_file(&stop_path);
         self.core.leave_command_mode(LEAVE_COMMAND_TIMEOUT).await;
         Ok(())
     }

@@ -76,7 +76,7 @@ impl StopReason {
     }
 }
 
-pub use fri_api::results::{AbortReason, ResyncReason};
+pub use fri_api::results::{AbortReason, ReleaseReason, ResyncReason};
 
 /// What the loop reports to the non-real-time side, in cycle order.
 #[allow(clippy::large_enum_variant)] // by value on purpose: no allocation per cycle
@@ -99,6 +99,8 @@ pub enum CycleEvent {
     Resumed {
         /// Cycle of the resume.
         cycle: u64,
+        /// Why the service released it on its own (`None`: the operator's `resume`, at once).
+        by_service: Option<ReleaseReason>,
     },
     /// A commanded move ended without reaching its target.
     MoveAborted {

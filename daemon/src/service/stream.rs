@@ -7,6 +7,10 @@
 //! - an event and the snapshots are delivered in the order the processor produced them;
 //! - the shared state is updated *before* the update is sent: whoever receives a stop event
 //!   and then reads [`Shared::latest`] sees the arm held.
+//!
+//! The changes the loop makes on its own (collisions, holds and releases by the service,
+//! monitor restarts) are handed to the audit trail here, in the same order
+//! ([`super::loop_audit`]).
 
 use std::sync::mpsc::Receiver;
 use std::sync::{Arc, Mutex};
@@ -16,8 +20,10 @@ use std::time::{Duration, Instant};
 use tokio::sync::broadcast;
 
 use super::cycle::CycleEvent;
+use super::loop_audit::LoopAudit;
 use super::output::{FriContext, StopReason};
 use super::state::{LoopState, Snapshot};
+use crate::audit::Audit;
 use crate::ipc::IpcSender;
 use fri_api::ipc::flags;
 
@@ -105,16 +111,22 @@ impl Shared {
     }
 }
 
-/// Starts the stream thread; it ends when the processor (the sender) is dropped.
+/// Starts the stream thread; it ends when the processor (the sender) is dropped. The changes
+/// the loop makes on its own go to `audit` (through the `fri-audit` thread: never blocking this
+/// one, [`super::loop_audit`]).
 pub fn spawn(
     rx: Receiver<CycleEvent>,
     shared: Arc<Shared>,
     ipc: Option<IpcSender>,
+    audit: Arc<Audit>,
 ) -> std::io::Result<JoinHandle<()>> {
+    // The audit thread ends with this one (when `loop_audit` is dropped).
+    let (loop_audit, _audit_thread) = LoopAudit::spawn(audit)?;
     std::thread::Builder::new()
         .name("fri-stream".into())
         .spawn(move || {
             while let Ok(e) = rx.recv() {
+                loop_audit.event(&e);
                 if let Some(ipc) = &ipc {
                     match &e {
                         CycleEvent::State(s) => {

@@ -202,11 +202,13 @@ impl<H: CycleHook> Responder<H> {
     }
 
     /// Records in the state how long it has been, at `now`, since the newest accepted
-    /// measurement (the endpoint thread calls it just before publishing).
+    /// measurement, and what waits for a re-synchronisation then (the endpoint thread calls it
+    /// just before publishing).
     pub fn note_silence(&mut self, now: Instant) {
         self.state.silence_s = self.session.last_source().map_or(0.0, |(_, at)| {
             now.saturating_duration_since(at).as_secs_f64()
         });
+        self.state.resync = self.session.pending_resync(now);
     }
 
     /// The state as of the last call (what the endpoint publishes).

@@ -78,6 +78,7 @@
 mod config;
 mod events;
 mod peer;
+mod resync;
 mod sequence;
 mod shaping;
 mod stats;
@@ -87,6 +88,7 @@ pub use config::{
     DEFAULT_MAX_JOINT_STEP, DEFAULT_MAX_JOINT_STIFFNESS, DesiredCommand, SessionConfig,
 };
 pub use events::{CommandModeExit, EVENT_CAPACITY, SessionEvent};
+pub use resync::{PendingResync, ResyncKind};
 pub use sequence::{Arrival, MAX_CYCLE, NOMINAL_CYCLE, SequenceCounters, Verdict};
 pub use stats::{
     LimitCounters, RejectionCounters, SessionStatistics, TIMING_WINDOW, TimingStatistics,
@@ -102,6 +104,7 @@ use crate::wire::{
 };
 use events::EventQueue;
 use peer::{Admission, Peer};
+use resync::Refusals;
 use sequence::{Refusal, SequenceTracker};
 use shaping::build;
 use stats::Window;
@@ -233,6 +236,8 @@ pub struct Session {
     acknowledged_reported: i32,
     /// Events not yet polled.
     events: EventQueue,
+    /// Refused datagrams a re-synchronisation would accept, since the newest accepted one.
+    refusals: Refusals,
 }
 
 impl Session {
@@ -263,6 +268,7 @@ impl Session {
             commanding: false,
             acknowledged_reported: 0,
             events: EventQueue::default(),
+            refusals: Refusals::default(),
         }
     }
 
@@ -285,6 +291,7 @@ impl Session {
             Ok((msr, arrival)) => Ok(self.accept(msr, arrival, source, now)),
             Err(rejection) => {
                 self.count_rejection(&rejection);
+                self.note_resync_candidate(&rejection, source);
                 Err(rejection)
             }
         }
@@ -367,6 +374,7 @@ impl Session {
                 .push((period - msr.interface.desired_msr_sample_time).abs());
         }
         self.raise_events(&msr, arrival, source);
+        self.refusals.clear();
         self.sequence.accept(msr.header.send_seq_count, now);
         self.peer.bind(source);
         // The application sees only answered measurements: fold an unanswered one in.
@@ -494,6 +502,32 @@ impl Session {
                 self.stats.sequence.out_of_window += 1;
             }
         }
+    }
+
+    /// Counts a refusal that a re-synchronisation would end: a sequence number of the bound
+    /// controller that does not follow the accepted ones, or another source the address filter
+    /// admits (both are accepted once the bound controller is silent for `resync_after`).
+    fn note_resync_candidate(&mut self, r: &Rejection, source: SocketAddr) {
+        let kind = match r {
+            Rejection::Duplicate { .. }
+            | Rejection::Reordered { .. }
+            | Rejection::OutOfWindow { .. } => ResyncKind::Restart,
+            Rejection::UnexpectedSource(_)
+                if self.peer.bound().is_some() && self.peer.filter_admits(source, &self.config) =>
+            {
+                ResyncKind::NewSource
+            }
+            _ => return,
+        };
+        self.refusals.refuse(kind, source);
+    }
+
+    /// Datagrams refused since the newest accepted one that the session accepts once the
+    /// bound controller has been silent for `resync_after` (a restarted controller, or one on a
+    /// new source), as of `now`; `None` when nothing waits.
+    pub fn pending_resync(&self, now: Instant) -> Option<PendingResync> {
+        let last = self.last_good.as_ref().map(|(_, _, at)| *at);
+        self.refusals.pending(last, now, self.config.resync_after)
     }
 
     /// Builds the reply to the newest accepted measurement from the application's wish, applies

@@ -42,9 +42,7 @@ impl Peer {
         config: &SessionConfig,
         silent: bool,
     ) -> Result<Admission, Rejection> {
-        let ip_ok = config.controller_ip.is_none_or(|ip| ip == source.ip());
-        let port_ok = config.controller_port.is_none_or(|p| p == source.port());
-        if !(ip_ok && port_ok) {
+        if !self.filter_admits(source, config) {
             return Err(Rejection::UnexpectedSource(source));
         }
         match self.bound {
@@ -53,6 +51,12 @@ impl Peer {
             Some(_) if silent => Ok(Admission::Rebind),
             Some(_) => Err(Rejection::UnexpectedSource(source)),
         }
+    }
+
+    /// Whether `source` passes the configured address and port filter (whatever is bound).
+    pub(crate) fn filter_admits(&self, source: SocketAddr, config: &SessionConfig) -> bool {
+        config.controller_ip.is_none_or(|ip| ip == source.ip())
+            && config.controller_port.is_none_or(|p| p == source.port())
     }
 
     /// Binds the session to `source` (after a datagram from it was accepted).

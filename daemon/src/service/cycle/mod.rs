@@ -36,7 +36,7 @@ use safety::{
 };
 
 pub use super::output::CycleEvent;
-use super::output::{AbortReason, FriContext, ResyncReason, StopReason};
+use super::output::{AbortReason, FriContext, ReleaseReason, ResyncReason, StopReason};
 use crate::ipc::{CollisionMessage, RobotState};
 use crate::motion::{JointMove, MotionLimits};
 use fri_api::ipc::flags;
@@ -44,7 +44,10 @@ use fri_api::ipc::flags;
 mod command;
 mod publish;
 mod requests;
+mod stop_latch;
 mod unknown_payload;
+
+pub use stop_latch::StopLatch;
 
 type V7 = SVector<f64, 7>;
 
@@ -71,10 +74,16 @@ pub enum CycleRequest {
     MoveTo([f64; 7]),
     /// Leave command mode once no move is pending.
     ReleaseCommandMode,
-    /// Operator stop: brake any move and hold; refuse moves until [`CycleRequest::Resume`].
+    /// Stop in the queue's order: brake any move and hold; refuse moves until
+    /// [`CycleRequest::Resume`] (the operator's `stop` goes through the [`StopLatch`] instead,
+    /// which no queued request can delay).
     Stop,
-    /// Clear an operator stop and acknowledge a collision reaction.
-    Resume,
+    /// Clear an operator stop and acknowledge a collision reaction, unless a stop was requested
+    /// through the [`StopLatch`] after this resume was sent.
+    Resume {
+        /// [`StopLatch::requested`] when the resume was sent.
+        after_stops: u64,
+    },
     /// Install a payload in the observer (paper eq. 48); `None` removes it.
     SetPayload(Option<PayloadCompensation>),
     /// Arm (true) or disarm (false) the collision reaction.
@@ -144,6 +153,9 @@ pub struct CycleProcessor {
     payload: Option<PayloadCompensation>,
     armed: bool,
     requests: Receiver<CycleRequest>,
+    /// The operator's stops, outside the queue; `stops_handled` of them are latched.
+    stop_latch: StopLatch,
+    stops_handled: u64,
     events: SyncSender<CycleEvent>,
     dropped_events: u64,
     cycle: u64,
@@ -201,6 +213,8 @@ impl CycleProcessor {
             monitor: Box::new(monitor),
             payload: None,
             requests,
+            stop_latch: StopLatch::default(),
+            stops_handled: 0,
             events,
             dropped_events: 0,
             cycle: 0,
@@ -227,6 +241,12 @@ impl CycleProcessor {
             settling_after_move: false,
             last_speed: 0.0,
         }
+    }
+
+    /// The latch through which the operator side stops the arm (read at the start of every
+    /// cycle, before the queued requests).
+    pub fn stop_latch(&self) -> StopLatch {
+        self.stop_latch.clone()
     }
 
     /// Events dropped because the non-real-time side was behind.
@@ -300,6 +320,7 @@ impl CycleProcessor {
             self.resynchronise(ResyncReason::Gap { cycles }, fri);
         }
 
+        self.take_latched_stop(fri);
         self.handle_requests(fri);
 
         self.follow_command_mode(msr, verdict.commanding, restarted, fri);
@@ -354,7 +375,7 @@ impl CycleProcessor {
             self.apply_reaction(r, fri);
         }
         if self.resume_when_clear && !self.monitor.detector().in_contact() {
-            self.resume(fri);
+            self.resume(fri, Some(ReleaseReason::ContactEnded));
         }
 
         let (desired, new_request) = self.command(msr, handshake, request, fri);

@@ -31,23 +31,20 @@ impl CycleProcessor {
                     self.brake();
                     self.command_wanted = false;
                 }
-                CycleRequest::Stop => {
-                    self.operator_stop = true;
-                    self.resume_when_clear = false;
-                    self.brake();
-                    self.emit(CycleEvent::Stopped {
-                        cycle: self.cycle,
-                        reason: StopReason::Operator,
-                        fri,
-                    });
-                }
-                CycleRequest::Resume => {
+                CycleRequest::Stop => self.operator_stop(fri),
+                CycleRequest::Resume { after_stops } => {
+                    // A stop requested after this resume was sent holds, even when the queue
+                    // delivers the resume later.
+                    self.take_latched_stop(fri);
+                    if after_stops < self.stops_handled {
+                        continue;
+                    }
                     // Into a contact that is still present, the resume waits for its release
                     // (the old reaction would otherwise be replaced by a new one at once).
                     if self.armed && self.monitor.detector().in_contact() {
                         self.resume_when_clear = true;
                     } else {
-                        self.resume(fri);
+                        self.resume(fri, None);
                     }
                 }
                 CycleRequest::SetPayload(p) => {
@@ -90,8 +87,30 @@ impl CycleProcessor {
             }
         }
     }
-    /// Ends every hold (operator stop, reaction) and readies the reaction for the next onset.
-    pub(super) fn resume(&mut self, _fri: FriContext) {
+    /// Latches the stops requested through the [`StopLatch`] since the last look.
+    pub(super) fn take_latched_stop(&mut self, fri: FriContext) {
+        let requested = self.stop_latch.requested();
+        if requested != self.stops_handled {
+            self.stops_handled = requested;
+            self.operator_stop(fri);
+        }
+    }
+
+    /// The operator's stop: brake any move and hold until a resume.
+    fn operator_stop(&mut self, fri: FriContext) {
+        self.operator_stop = true;
+        self.resume_when_clear = false;
+        self.brake();
+        self.emit(CycleEvent::Stopped {
+            cycle: self.cycle,
+            reason: StopReason::Operator,
+            fri,
+        });
+    }
+
+    /// Ends every hold (operator stop, reaction) and readies the reaction for the next onset;
+    /// `by_service` says why when no operator request does it now.
+    pub(super) fn resume(&mut self, _fri: FriContext, by_service: Option<ReleaseReason>) {
         let was = self.is_holding();
         self.resume_when_clear = false;
         self.operator_stop = false;
@@ -100,7 +119,10 @@ impl CycleProcessor {
         // The hold ended here: the supervisor must be ready for the next onset.
         self.monitor.release_reaction();
         if was {
-            self.emit(CycleEvent::Resumed { cycle: self.cycle });
+            self.emit(CycleEvent::Resumed {
+                cycle: self.cycle,
+                by_service,
+            });
         }
     }
     pub(super) fn abort_move(&mut self, reason: AbortReason, fri: FriContext) {
@@ -160,7 +182,10 @@ impl CycleProcessor {
                     {
                         self.pending_target = Some(t);
                     }
-                    self.emit(CycleEvent::Resumed { cycle: self.cycle });
+                    self.emit(CycleEvent::Resumed {
+                        cycle: self.cycle,
+                        by_service: Some(ReleaseReason::PauseElapsed),
+                    });
                 }
             }
         }

@@ -8,6 +8,7 @@ use tokio::sync::broadcast::error::RecvError;
 use tokio::time::Instant;
 
 use super::acquire::{Acquire, WATCH_WAIT_S};
+use super::motion::SilenceTimer;
 use crate::operator::server::EventSink;
 use crate::service::core::{ServiceCore, err};
 use crate::service::stream::Update;
@@ -104,11 +105,16 @@ impl ServiceCore {
             RecordKind::Mcap => {
                 let d = log_duration(duration_s)?;
                 let namespace = ros_namespace(&self.config)?;
+                // Nothing to record without a controller: fail before creating the file.
+                self.latest()?;
                 let (file, _) = dir.create(path).map_err(refuse)?;
-                let (rows, lost) = self
+                let (rows, lost, silent) = self
                     .record_mcap(file, d, namespace)
                     .await
                     .map_err(|e| err(ErrorCode::Failed, format!("cannot write {shown}: {e}")))?;
+                if let Some(silent_s) = silent {
+                    return Err(self.went_silent(silent_s, rows, &shown));
+                }
                 Ok(RecordResult {
                     rows,
                     path: shown,
@@ -118,6 +124,10 @@ impl ServiceCore {
             RecordKind::Log => {
                 let d = log_duration(duration_s)?;
                 let mut updates = self.shared.subscribe();
+                // Nothing to record without a controller: fail before creating the file.
+                self.latest()?;
+                let silence = SilenceTimer::new(self);
+                let mut silent = None;
                 let (file, _) = dir.create(path).map_err(refuse)?;
                 let mut w = std::io::BufWriter::new(file);
                 use std::io::Write;
@@ -135,6 +145,10 @@ impl ServiceCore {
                 loop {
                     let u = tokio::select! {
                         u = updates.recv() => u,
+                        silent_s = silence.silence() => {
+                            silent = Some(silent_s);
+                            break;
+                        }
                         _ = tokio::time::sleep_until(wall) => break,
                     };
                     let s = match u {
@@ -160,6 +174,9 @@ impl ServiceCore {
                     rows += 1;
                 }
                 w.flush().map_err(io)?;
+                if let Some(silent_s) = silent {
+                    return Err(self.went_silent(silent_s, rows, &shown));
+                }
                 Ok(RecordResult {
                     rows,
                     path: shown,
@@ -167,6 +184,19 @@ impl ServiceCore {
                 })
             }
         }
+    }
+}
+
+impl ServiceCore {
+    /// The error of a recording the controller's silence ended: `controller-silent`, naming
+    /// the partial file.
+    fn went_silent(&self, silent_s: f64, rows: usize, shown: &str) -> OperatorError {
+        let mut e = self.silent_error(silent_s);
+        e.message = format!(
+            "{}; the recording stopped after {rows} cycles ({shown} holds them)",
+            e.message
+        );
+        e
     }
 }
 
@@ -208,13 +238,14 @@ impl ServiceCore {
     /// Records `duration_s` s of controller time into `file` as MCAP: states, collision onsets,
     /// the applied payload at the start and on each change, contact wrenches. The writer (CDR encoding, zstd)
     /// runs on a blocking thread; a full queue or a lagging stream counts the cycles as lost.
-    /// Returns the states written and the cycles lost.
+    /// Returns the states written, the cycles lost, and the controller's silence, s, when it
+    /// ended the recording early (the file is complete up to there).
     async fn record_mcap(
         &self,
         file: std::fs::File,
         duration_s: f64,
         namespace: String,
-    ) -> Result<(usize, u64), String> {
+    ) -> Result<(usize, u64, Option<f64>), String> {
         use crate::mcap_recording::{Item, McapRecording, McapSettings};
         use crate::service::cycle::CycleEvent;
         use std::sync::mpsc::{TrySendError, sync_channel};
@@ -242,6 +273,8 @@ impl ServiceCore {
         let mut lost = 0u64;
         let mut payload: Option<Option<crate::persistence::AppliedPayload>> = None;
         let wall = Instant::now() + Duration::from_secs_f64(duration_s * 2.0 + 10.0);
+        let silence = SilenceTimer::new(self);
+        let mut silent = None;
         let send = |item: Item, lost: &mut u64| match tx.try_send(item) {
             Ok(()) => true,
             Err(TrySendError::Full(Item::State(_))) => {
@@ -255,6 +288,10 @@ impl ServiceCore {
         loop {
             let u = tokio::select! {
                 u = updates.recv() => u,
+                silent_s = silence.silence() => {
+                    silent = Some(silent_s);
+                    break;
+                }
                 _ = tokio::time::sleep_until(wall) => break,
             };
             let item = match u {
@@ -304,6 +341,6 @@ impl ServiceCore {
             .await
             .map_err(|e| format!("the MCAP writer thread failed: {e}"))?
             .map_err(|e| e.to_string())?;
-        Ok((written.states, lost))
+        Ok((written.states, lost, silent))
     }
 }

@@ -35,6 +35,9 @@ impl ServiceCore {
                 cycles: s.cycle,
                 statistics: s.statistics,
                 controller_statistics: s.measurement.interface.statistics,
+                // Only while disconnected: a controller that talks ends a resync at its next
+                // accepted datagram, so a single refused replay is no resynchronisation.
+                resync: s.resync.filter(|_| !connected),
             }
         });
         StatusResult {

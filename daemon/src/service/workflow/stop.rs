@@ -13,13 +13,16 @@ use crate::service::stream::Update;
 use fri_api::protocol::{ErrorCode, OperatorError};
 
 impl ServiceCore {
-    /// Sends `request` to the loop and returns the first state published after the loop
-    /// handled it, or how long the controller has been silent (requests are handled in the
-    /// controller's cycles: nothing is handled while it is silent, the request stays queued).
-    async fn after_handled(&self, request: CycleRequest) -> Result<Handled, OperatorError> {
+    /// Hands a request to the loop (`send`) and returns the first state published after the
+    /// loop handled it, or how long the controller has been silent (requests are handled in
+    /// the controller's cycles: nothing is handled while it is silent, the request waits).
+    async fn after_handled(
+        &self,
+        send: impl FnOnce() -> Result<(), OperatorError>,
+    ) -> Result<Handled, OperatorError> {
         let mut updates = self.shared.subscribe();
         let seen = self.latest().map(|s| s.robot.cycle);
-        self.send(request)?;
+        send()?;
         let seen = match seen {
             Ok(cycle) => cycle,
             Err(e) => return Ok(Handled::Silent(e.message)),
@@ -53,12 +56,17 @@ impl ServiceCore {
 
     /// `stop`.
     ///
-    /// The stop is latched in the loop at once; the reply comes from the first state after the
-    /// loop handled it (the arm is held then). When the controller is silent nothing is being
-    /// commanded (the controller stops the arm itself when our answers are missing) and the
-    /// reply says so: the latched stop holds the arm when the controller returns.
+    /// The stop is latched in the loop at once, through the [`crate::service::cycle::StopLatch`]
+    /// (a full request queue cannot refuse or delay it); the reply comes from the first state
+    /// after the loop handled it (the arm is held then). When the controller is silent nothing
+    /// is being commanded (the controller stops the arm itself when our answers are missing) and
+    /// the reply says so: the latched stop holds the arm when the controller returns.
     pub async fn stop(&self) -> Result<StopResult, OperatorError> {
-        Ok(match self.after_handled(CycleRequest::Stop).await? {
+        let latch = || {
+            self.stop_latch.request();
+            Ok(())
+        };
+        Ok(match self.after_handled(latch).await? {
             Handled::In(_) => StopResult {
                 stopped: true,
                 controller: ControllerLink::Connected,
@@ -81,7 +89,14 @@ impl ServiceCore {
     /// hold is still detected (the resume is then latched and releases the arm when the contact
     /// ends), or held again by a new stop.
     pub async fn resume(&self) -> Result<ResumeResult, OperatorError> {
-        Ok(match self.after_handled(CycleRequest::Resume).await? {
+        // Stamped with the stops requested so far: a stop requested after it is never released
+        // by it, even when the queue delivers the resume after the stop.
+        let resume = || {
+            self.send(CycleRequest::Resume {
+                after_stops: self.stop_latch.requested(),
+            })
+        };
+        Ok(match self.after_handled(resume).await? {
             Handled::In(s) => outcome(&s),
             Handled::Silent(why) => ResumeResult {
                 stopped: true,

@@ -38,7 +38,7 @@ fn event_of(e: CycleEvent) -> Option<Event> {
             cause: reason.to_cause(),
             fri,
         }),
-        CycleEvent::Resumed { cycle } => Event::Resumed(Resumed { cycle }),
+        CycleEvent::Resumed { cycle, .. } => Event::Resumed(Resumed { cycle }),
         CycleEvent::MoveAborted { cycle, reason, fri } => Event::MoveAborted(MoveAborted {
             cycle,
             reason,

@@ -89,4 +89,42 @@ pub enum Cause {
         /// The controller's view in its last measurement, if any.
         fri: Option<FriContext>,
     },
+    /// The calibration recording holds a contact-like onset: a residual held far beyond the
+    /// rest of the recording (`safety::calibration::screen`); nothing was fitted or installed.
+    ContactInRecording {
+        /// Joint, 1..7.
+        joint: usize,
+        /// When the held residual first lay beyond the limit, s (the clock of `time_s`).
+        onset_s: f64,
+        /// When it peaked, s.
+        peak_s: f64,
+        /// The residual held over 0.1 s at the peak, Nm (signed).
+        residual_nm: f64,
+        /// The joint's residual envelope there without contact, Nm.
+        envelope_nm: f64,
+        /// The peak's score against the rest of the recording.
+        score: f64,
+        /// The score a recording without contact stays below.
+        limit: f64,
+    },
+    /// Calibrated thresholds above the configured ceiling (`[observer] calibration_ceiling_nm`,
+    /// at rest or as the median over the recording) are installed only with `allow_weaker`.
+    CalibrationAboveCeiling {
+        /// The joints above it.
+        joints: Vec<ThresholdAboveCeiling>,
+    },
+}
+
+/// A calibrated threshold above the configured ceiling: at rest, or as the median of the
+/// schedule over the recording (what the monitor runs at during the task).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ThresholdAboveCeiling {
+    /// Joint, 1..7.
+    pub joint: usize,
+    /// The calibrated threshold at rest θ0, Nm.
+    pub threshold_at_rest_nm: f64,
+    /// The median of the scheduled threshold over the recording, Nm.
+    pub threshold_median_nm: f64,
+    /// The ceiling, Nm.
+    pub ceiling_nm: f64,
 }

@@ -111,6 +111,10 @@ fn weakens(change: &Change) -> bool {
         | Change::Restored {
             weaker_than_configuration,
             ..
+        }
+        | Change::CalibrationInstalled {
+            weaker_than_configuration,
+            ..
         } => !weaker_than_configuration.is_empty(),
         _ => false,
     }

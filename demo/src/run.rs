@@ -808,6 +808,7 @@ async fn calibrate_thresholds(
                 duration_s: Some(CALIBRATION_RECORD_S),
                 budget_per_hour: None,
                 apply: Some(true),
+                allow_weaker: None,
             },
             |_, _| {},
         )

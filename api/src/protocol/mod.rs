@@ -117,6 +117,12 @@ pub enum Command {
         /// Install and persist the calibrated settings (default false: a preview).
         #[serde(default)]
         apply: Option<bool>,
+        /// With `apply`: install thresholds above the configured ceiling
+        /// (`[observer] calibration_ceiling_nm`, at rest or median over the recording) too —
+        /// they weaken detection, and the audit trail records by how much (default false:
+        /// refused).
+        #[serde(default)]
+        allow_weaker: Option<bool>,
     },
     /// Stop: hold the current position and abort any running workflow.
     Stop,

@@ -56,6 +56,10 @@ pub enum Change {
         thresholds: [f64; 7],
         /// False alarms per hour the calibration was fitted for, whole arm.
         budget_per_hour: f64,
+        /// What makes them weaker than the configuration: thresholds at rest above
+        /// `[observer] calibration_ceiling_nm`, installed with `allow_weaker` (empty: none).
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        weaker_than_configuration: Vec<String>,
     },
     /// A payload was applied to the monitor (and persisted).
     PayloadApplied {
@@ -133,11 +137,15 @@ impl std::fmt::Display for Change {
             Change::CalibrationInstalled {
                 thresholds,
                 budget_per_hour,
-            } => write!(
-                f,
-                "calibrated thresholds installed: θ0 [Nm] {} for {budget_per_hour} false alarms/h",
-                values(thresholds, 2)
-            ),
+                weaker_than_configuration,
+            } => {
+                write!(
+                    f,
+                    "calibrated thresholds installed: θ0 [Nm] {} for {budget_per_hour} false alarms/h",
+                    values(thresholds, 2)
+                )?;
+                weaker(f, weaker_than_configuration)
+            }
             Change::PayloadApplied { mass, com } => write!(
                 f,
                 "payload applied: {mass:.4} kg at ({:.1}, {:.1}, {:.1}) mm in frame 7",

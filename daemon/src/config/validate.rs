@@ -89,6 +89,15 @@ impl Config {
                 )
             })?;
         }
+        for j in 0..JOINTS {
+            in_range_at(
+                "observer.calibration_ceiling_nm",
+                j,
+                o.calibration_ceiling_nm[j],
+                bounds::threshold(j),
+            )
+            .map_err(|e| with_note(e, "a ceiling within the thresholds' own range"))?;
+        }
         in_range("reaction.pause_s", self.reaction.pause_s, bounds::PAUSE_S)?;
         let u = &self.unknown_payload;
         in_range(

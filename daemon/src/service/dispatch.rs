@@ -7,6 +7,7 @@ use serde::Serialize;
 use serde_json::Value;
 
 use super::core::ServiceCore;
+use super::workflow::calibrate::CalibrateRequest;
 use super::workflow::collision::MonitorChange;
 use crate::operator::server::{EventSink, Handler};
 use crate::persistence::AppliedPayload;
@@ -124,12 +125,16 @@ impl Handler for Dispatcher {
                 duration_s,
                 budget_per_hour,
                 apply,
+                allow_weaker,
             } => reply(
                 s.collision_calibrate(
-                    source.unwrap_or_default(),
-                    duration_s,
-                    budget_per_hour,
-                    apply.unwrap_or(false),
+                    CalibrateRequest {
+                        source: source.unwrap_or_default(),
+                        duration_s,
+                        budget_per_hour,
+                        apply: apply.unwrap_or(false),
+                        allow_weaker: allow_weaker.unwrap_or(false),
+                    },
                     &origin,
                     &events,
                 )

@@ -26,6 +26,8 @@ impl<const N: usize> EnvelopeRecorder<N> {
                 block_s: options.block_s,
             });
         }
+        self.screen(window_s, per_block, blocks)
+            .map_err(CalibrationError::ContactInRecording)?;
         let block_s = per_block as f64 * window_s;
         let per_joint_budget = options.budget_per_hour / N as f64;
         let p_block = per_joint_budget * block_s / 3600.0;
@@ -37,7 +39,7 @@ impl<const N: usize> EnvelopeRecorder<N> {
         let mut median_threshold = SVector::<f64, N>::zeros();
         for j in 0..N {
             let coefficients = self
-                .fit_envelope(j)
+                .fit_envelope_where(j, |_| true)
                 .ok_or(CalibrationError::Degenerate { joint: j })?;
             let envelope = |w: &Window<N>| {
                 coefficients[0]
@@ -122,12 +124,19 @@ impl<const N: usize> EnvelopeRecorder<N> {
     }
 
     /// Non-negative least squares of the windows' |r_j| on (1, φ_j), columns scaled to unit
-    /// RMS; the intercept is kept ≥ 5 % of the mean |r_j| so that z stays finite at rest.
-    fn fit_envelope(&self, j: usize) -> Option<[f64; ENVELOPE_TERMS]> {
+    /// RMS; the intercept is kept ≥ 5 % of the mean |r_j| so that z stays finite at rest. Only
+    /// the windows whose index `include` accepts enter (the contact screen leaves out blocks).
+    pub(super) fn fit_envelope_where(
+        &self,
+        j: usize,
+        include: impl Fn(usize) -> bool,
+    ) -> Option<[f64; ENVELOPE_TERMS]> {
         let mut gram = SMatrix::<f64, ENVELOPE_TERMS, ENVELOPE_TERMS>::zeros();
         let mut rhs = SVector::<f64, ENVELOPE_TERMS>::zeros();
         let mut mean = 0.0;
-        for w in &self.windows {
+        let mut n = 0usize;
+        for (_, w) in self.windows.iter().enumerate().filter(|(i, _)| include(*i)) {
+            n += 1;
             let x = SVector::<f64, ENVELOPE_TERMS>::from_fn(|k, _| {
                 if k == 0 {
                     1.0
@@ -140,7 +149,7 @@ impl<const N: usize> EnvelopeRecorder<N> {
             rhs += x * y;
             mean += y;
         }
-        let n = self.windows.len() as f64;
+        let n = n as f64;
         mean /= n;
         if mean.is_nan() || mean <= 0.0 {
             return None;
@@ -187,7 +196,7 @@ mod tests {
             let (u1, u2) = (rng.uniform().max(1e-300), rng.uniform());
             let g = (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
             let r = V2::from_fn(|j, _| g * noise[j] * (1.0 + speed_gain[j] * v));
-            rec.push(&r, &f);
+            rec.push(k as f64 * 1e-3, &r, &f);
         }
         rec
     }

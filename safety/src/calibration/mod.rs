@@ -5,15 +5,18 @@
 //!    ([`crate::envelope`]), kept per window of [`WINDOW_SAMPLES`] samples as the window's
 //!    largest |r_j| with the features of that sample (what the scheduled threshold saw at the
 //!    peak; a residual transient lasts a few samples, the features are held for 50 ms).
-//! 2. **Envelope** e_j(φ) = a_j + Σ_k c_jk·φ_jk: non-negative least squares of the windows'
+//! 2. **Contact screen** ([`screen`]): a recording with a contact-like onset (a residual held
+//!    far beyond the rest of the recording for [`screen::SUSTAIN_S`]) is refused, naming the
+//!    joint and the time — fitted, it would calibrate the contact away.
+//! 3. **Envelope** e_j(φ) = a_j + Σ_k c_jk·φ_jk: non-negative least squares of the windows'
 //!    |r_j| on (1, φ_j) — a scale model: |r_j| = e_j(φ)·z_j with z_j stationary.
-//! 3. **Extreme values**: z_j = |r_j|/e_j per window, maxima per block of `block_s`, fitted with
+//! 4. **Extreme values**: z_j = |r_j|/e_j per window, maxima per block of `block_s`, fitted with
 //!    a Gumbel distribution (a generalised extreme-value one when its shape is significantly
 //!    heavy-tailed; a significantly bounded tail keeps the Gumbel, which is then conservative)
 //!    by L-moments. The budget B false alarms per hour is split over the joints (union bound),
 //!    so joint j may exceed with probability p = (B/N)·block_s/3600 per block; its scale s_j is
 //!    the fit's return level for p, at the upper bound of a block bootstrap at `confidence`.
-//! 4. **Thresholds** θ_j(φ) = s_j·e_j(φ): θ0_j = s_j·a_j at rest and the
+//! 5. **Thresholds** θ_j(φ) = s_j·e_j(φ): θ0_j = s_j·a_j at rest and the
 //!    [`ThresholdSchedule`] coefficients s_j·c_jk, clamped into the allowed range.
 //!
 //! A fixed multiple of the recording's peak would not say how often it is exceeded; the
@@ -24,7 +27,7 @@
 //! Modules: [`recorder`] (the windows), [`fit`] (envelope and scale per joint), `nnls` (the
 //! envelope's non-negative least squares), [`extreme`] (L-moment Gumbel/GEV fit), `bootstrap`
 //! (resampling and quantiles), `gamma` (Γ for the GEV), `rng` (the deterministic generator),
-//! [`force`] (minimum detectable force).
+//! [`force`] (minimum detectable force), [`screen`] (the contact screen).
 
 use nalgebra::SVector;
 use serde::{Deserialize, Serialize};
@@ -39,10 +42,12 @@ mod gamma;
 mod nnls;
 pub mod recorder;
 mod rng;
+pub mod screen;
 
 pub use extreme::{ExtremeFit, ExtremeModel};
 pub use force::{LinkForce, minimum_detectable_force};
 pub use recorder::EnvelopeRecorder;
+pub use screen::{ContactOnset, ScreenMargin};
 
 /// Samples per recorded window (10 ms at 1 kHz): the residual's time constant is 2.5 ms at the
 /// default gain, the features change over tens of ms.
@@ -79,6 +84,13 @@ pub enum CalibrationError {
         /// Largest allowed.
         max: f64,
     },
+    /// The recording holds a contact-like onset ([`screen`]): fitted, it would calibrate the
+    /// contact away.
+    #[error(
+        "joint {} (1-based): the residual held {:+.2} Nm for {} s from {:.3} s (peak at {:.3} s) where the envelope of the rest of the recording is {:.2} Nm — score {:.1}, beyond the limit {:.1} of a recording without contact: a contact? Nothing was fitted: record again without touching the arm",
+        .0.joint + 1, .0.residual_nm, screen::SUSTAIN_S, .0.onset_s, .0.peak_s, .0.envelope_nm, .0.score, .0.limit
+    )]
+    ContactInRecording(ContactOnset),
     /// The residual carried no variation on a joint (e.g. a simulation without noise).
     #[error("joint {joint} (0-based): the residual never left zero; nothing to fit")]
     Degenerate {
@@ -124,7 +136,7 @@ impl<const N: usize> FitOptions<N> {
         }
     }
 
-    fn check(&self) -> Result<(), CalibrationError> {
+    pub(super) fn check(&self) -> Result<(), CalibrationError> {
         let bounded = |field, value: f64, min, max| {
             if value.is_finite() && (min..=max).contains(&value) {
                 Ok(())

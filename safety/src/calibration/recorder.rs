@@ -1,5 +1,6 @@
-//! The recording: per window of [`WINDOW_SAMPLES`] samples and per joint the largest |r_j| with
-//! the motion features of that sample.
+//! The recording: per window of [`WINDOW_SAMPLES`] samples its start time and per joint the
+//! largest |r_j| with the motion features of that sample, and the mean of r_j (signed: what a
+//! contact holds, noise averages away; [`super::screen`]).
 
 use nalgebra::SVector;
 
@@ -9,6 +10,10 @@ use crate::envelope::MotionFeatures;
 /// One recorded window.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Window<const N: usize> {
+    /// Time of the window's first sample \[s\] (the caller's clock).
+    pub(super) time_s: f64,
+    /// Mean of r_j over the window \[Nm\] (signed).
+    pub(super) mean: [f32; N],
     pub(super) peak: [f32; N],
     pub(super) features: [[f32; N]; FEATURES],
 }
@@ -20,6 +25,8 @@ pub struct EnvelopeRecorder<const N: usize> {
     pub(super) windows: Vec<Window<N>>,
     current: Option<Window<N>>,
     in_window: usize,
+    /// Sum of r over the current window \[Nm\].
+    sum: SVector<f64, N>,
     pub(super) samples: u64,
     pub(super) peak: SVector<f64, N>,
     pub(super) max_speed: SVector<f64, N>,
@@ -43,6 +50,7 @@ impl<const N: usize> EnvelopeRecorder<N> {
             windows: Vec::new(),
             current: None,
             in_window: 0,
+            sum: SVector::zeros(),
             samples: 0,
             peak: SVector::zeros(),
             max_speed: SVector::zeros(),
@@ -50,10 +58,12 @@ impl<const N: usize> EnvelopeRecorder<N> {
         }
     }
 
-    /// Adds one sample: residual `residual` \[Nm\] and the motion features the detector used
+    /// Adds one sample at `time_s` \[s\] (any clock that increases; it names the time of a
+    /// contact-like onset): residual `residual` \[Nm\] and the motion features the detector used
     /// with it. Non-finite samples are skipped.
-    pub fn push(&mut self, residual: &SVector<f64, N>, features: &MotionFeatures<N>) {
-        let finite = residual.iter().all(|x| x.is_finite())
+    pub fn push(&mut self, time_s: f64, residual: &SVector<f64, N>, features: &MotionFeatures<N>) {
+        let finite = time_s.is_finite()
+            && residual.iter().all(|x| x.is_finite())
             && features_of(features)
                 .iter()
                 .all(|f| f.iter().all(|x| x.is_finite()));
@@ -64,7 +74,10 @@ impl<const N: usize> EnvelopeRecorder<N> {
         self.peak = self.peak.sup(&residual.abs());
         self.max_speed = self.max_speed.sup(&features.speed);
         self.max_acceleration = self.max_acceleration.sup(&features.acceleration.abs());
+        self.sum += residual;
         let now = Window {
+            time_s,
+            mean: [0.0; N],
             peak: std::array::from_fn(|j| residual[j].abs() as f32),
             features: features_of(features),
         };
@@ -85,10 +98,12 @@ impl<const N: usize> EnvelopeRecorder<N> {
         }
         self.in_window += 1;
         if self.in_window == WINDOW_SAMPLES {
-            if let Some(w) = self.current.take() {
+            if let Some(mut w) = self.current.take() {
+                w.mean = std::array::from_fn(|j| (self.sum[j] / WINDOW_SAMPLES as f64) as f32);
                 self.windows.push(w);
             }
             self.in_window = 0;
+            self.sum = SVector::zeros();
         }
     }
 

@@ -5,6 +5,7 @@
 
 pub mod acquire;
 pub mod calibrate;
+pub mod calibration_report;
 pub mod collision;
 pub mod estimate;
 pub mod expect_payload;

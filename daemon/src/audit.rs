@@ -104,6 +104,7 @@ impl Audit {
 fn weakens(change: &Change) -> bool {
     match change {
         Change::Disarmed | Change::Resumed | Change::PayloadDeclaredUnknown { .. } => true,
+        Change::TareStored { loaded, .. } => loaded.is_some(),
         Change::MonitorConfigured {
             weaker_than_configuration,
             ..

@@ -308,6 +308,7 @@ async fn phases(
                 poses: Some(10),
                 step_deg: Some(7.0),
                 pattern: None,
+                replace_loaded: None,
             },
             |_, d| {
                 if d["phase"] == "sampled" {

@@ -93,6 +93,7 @@ impl Operator {
                     poses: None,
                     step_deg: None,
                     pattern: None,
+                    replace_loaded: None,
                 };
                 respond(self.call::<TareResult>(cmd, on_event).await)
             }

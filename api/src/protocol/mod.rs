@@ -38,6 +38,11 @@ pub enum Command {
         /// Pose pattern (default `paper`).
         #[serde(default)]
         pattern: Option<crate::pattern::PatternKind>,
+        /// Store the tare even when its samples see a load (default false: such a tare is
+        /// refused and the stored one kept; a load that belongs to the arm, e.g. a gripper the
+        /// controller's model lacks, needs this once).
+        #[serde(default)]
+        replace_loaded: Option<bool>,
     },
     /// Drive the pose pattern with the payload, estimate it and return it with uncertainties.
     EstimatePayload {

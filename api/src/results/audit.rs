@@ -90,6 +90,9 @@ pub enum Change {
     TareStored {
         /// Static samples in it.
         samples: usize,
+        /// The load its samples saw, stored anyway with `replace_loaded` (absent: none seen).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        loaded: Option<super::TareLoad>,
     },
     /// The monitor detected a contact.
     Collision {
@@ -166,7 +169,19 @@ impl std::fmt::Display for Change {
             }
             Change::Stopped => f.write_str("arm stopped"),
             Change::Resumed => f.write_str("arm released"),
-            Change::TareStored { samples } => write!(f, "tare stored ({samples} samples)"),
+            Change::TareStored { samples, loaded } => {
+                write!(f, "tare stored ({samples} samples)")?;
+                match loaded {
+                    Some(l) => write!(
+                        f,
+                        "; it sees a LOAD of {:.4} ± {:.4} kg against {} (stored with replace_loaded)",
+                        l.mass_kg,
+                        l.mass_std_kg,
+                        l.against.describe()
+                    ),
+                    None => Ok(()),
+                }
+            }
             Change::Collision { link, residual } => write!(
                 f,
                 "collision on link {link}, residual [Nm] {}",

@@ -134,6 +134,37 @@ fn cause_lines(cause: &Cause) -> Vec<String> {
                 )
             })
             .collect(),
+        Cause::EstimateRejected {
+            mass_kg,
+            mass_std_kg,
+            com_flange_m,
+            problems,
+        } => {
+            let mut v = vec![format!(
+                "cause: the estimate means nothing and was not applied: {} ± {} kg, centre of mass [mm] in the flange frame {}",
+                fixed(*mass_kg, 4),
+                fixed(*mass_std_kg, 4),
+                com_flange_m
+                    .iter()
+                    .map(|c| fixed(c * 1e3, 0))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            )];
+            v.extend(problems.iter().map(|p| format!("  {p}")));
+            v
+        }
+        Cause::LoadedTare {
+            mass_kg,
+            mass_std_kg,
+            sigmas,
+            against,
+        } => vec![format!(
+            "cause: the tare's samples see a load of {} ± {} kg against {} (above {}σ); the stored tare was kept: remove the payload and run `tare` again, or `--replace-loaded` if the load belongs to the arm",
+            fixed(*mass_kg, 4),
+            fixed(*mass_std_kg, 4),
+            against.describe(),
+            sigmas
+        )],
         Cause::CommandModeNotEntered { fri } => {
             let mut v = vec![
                 "cause: the controller did not enter command mode in time (check the KRL program, quality and drives)".to_owned(),

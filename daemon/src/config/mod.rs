@@ -250,6 +250,39 @@ pub struct EstimationConfig {
     /// Without a tare: 1σ of the per-joint constant error of Δτ = τ_J − g_ctrl (torque offset
     /// and the controller's model error at the poses), Nm (default 0.2).
     pub untared_offset_std: f64,
+    /// Farthest an estimate's centre of mass may lie from the flange point, m (default 0.3;
+    /// 0.01 to 1): beyond it the estimate means nothing and is refused, never applied; the
+    /// bound of `apply-payload` too (`estimator::verdict`).
+    pub max_com_distance_m: f64,
+    /// Largest 1σ of an estimate's mass, kg (default 0.1; 0.001 to 5): above it the estimate
+    /// is refused.
+    pub max_mass_std_kg: f64,
+    /// Largest RMS error √(σx² + σy² + σz²) of an estimate's centre of mass, m (default 0.05;
+    /// 0.001 to 1): above it the estimate is refused.
+    pub max_com_std_m: f64,
+    /// 1σ of the apparent mass the controller's gravity-model error gives a fit against its
+    /// gravity vector, kg (default 0.039, lwr4-model.md §4; 0 to 1): added to the fit's σ of an
+    /// estimate without a tare and of the load check of a tare without a stored one.
+    pub controller_model_mass_std_kg: f64,
+}
+
+impl EstimationConfig {
+    /// What an estimate must satisfy before it is reported or applied (the mass at least
+    /// `estimator::verdict::MASS_SIGNIFICANCE` σ above zero, and this section's bounds); against
+    /// the controller's gravity (`tared` false) its model error joins the mass σ.
+    pub fn verdict_bounds(&self, tared: bool) -> estimator::verdict::Bounds {
+        estimator::verdict::Bounds {
+            mass_sigmas: estimator::verdict::MASS_SIGNIFICANCE,
+            reference_mass_std_kg: if tared {
+                0.0
+            } else {
+                self.controller_model_mass_std_kg
+            },
+            max_com_distance_m: self.max_com_distance_m,
+            max_mass_std_kg: self.max_mass_std_kg,
+            max_com_std_m: self.max_com_std_m,
+        }
+    }
 }
 
 impl Default for EstimationConfig {
@@ -267,6 +300,10 @@ impl Default for EstimationConfig {
             drift_rate: 0.002,
             drift_prior_weight: 7.0,
             untared_offset_std: 0.2,
+            max_com_distance_m: estimator::verdict::MAX_COM_DISTANCE_M,
+            max_mass_std_kg: estimator::verdict::MAX_MASS_STD_KG,
+            max_com_std_m: estimator::verdict::MAX_COM_STD_M,
+            controller_model_mass_std_kg: estimator::verdict::CONTROLLER_MODEL_MASS_STD_KG,
         }
     }
 }

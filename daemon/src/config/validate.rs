@@ -190,6 +190,26 @@ impl Config {
             e.untared_offset_std,
             Range::new(1e-3, 5.0, "Nm"),
         )?;
+        in_range(
+            "estimation.max_com_distance_m",
+            e.max_com_distance_m,
+            Range::new(0.01, 1.0, "m"),
+        )?;
+        in_range(
+            "estimation.max_mass_std_kg",
+            e.max_mass_std_kg,
+            Range::new(0.001, 5.0, "kg"),
+        )?;
+        in_range(
+            "estimation.max_com_std_m",
+            e.max_com_std_m,
+            Range::new(0.001, 1.0, "m"),
+        )?;
+        in_range(
+            "estimation.controller_model_mass_std_kg",
+            e.controller_model_mass_std_kg,
+            Range::new(0.0, 1.0, "kg"),
+        )?;
         check(
             "operator.socket",
             !self.operator.socket.as_os_str().is_empty(),

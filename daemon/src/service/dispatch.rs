@@ -9,6 +9,7 @@ use serde_json::Value;
 use super::core::ServiceCore;
 use super::workflow::calibrate::CalibrateRequest;
 use super::workflow::collision::MonitorChange;
+use super::workflow::tare::TareRequest;
 use crate::operator::server::{EventSink, Handler};
 use crate::persistence::AppliedPayload;
 use fri_api::origin::Origin;
@@ -43,18 +44,27 @@ impl Handler for Dispatcher {
                 poses,
                 step_deg,
                 pattern,
+                replace_loaded,
             } => reply(
                 s.tare(
-                    around,
-                    poses,
-                    step_deg,
-                    pattern.unwrap_or(s.config.estimation.pattern),
+                    TareRequest {
+                        around,
+                        poses,
+                        step_deg,
+                        kind: pattern.unwrap_or(s.config.estimation.pattern),
+                        replace_loaded: replace_loaded.unwrap_or(false),
+                    },
                     &events,
                 )
                 .await
                 .inspect(|t| {
-                    s.audit
-                        .record(&origin, Change::TareStored { samples: t.samples });
+                    s.audit.record(
+                        &origin,
+                        Change::TareStored {
+                            samples: t.samples,
+                            loaded: t.load.filter(|l| l.loaded),
+                        },
+                    );
                 }),
             ),
             Command::EstimatePayload {

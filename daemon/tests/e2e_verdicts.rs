@@ -91,6 +91,7 @@ async fn a_loaded_tare_is_refused_and_an_estimate_against_one_is_never_applied()
     // With 3.028 kg attached a new tare sees it against the stored one and is refused.
     let driver = attach_payload(driver, &h, true).await;
     let e = typed::<TareResult>(&mut c, tare(false)).await.unwrap_err();
+    eprintln!("loaded tare: {}", e.message);
     assert_eq!(e.code, ErrorCode::Failed, "{e:?}");
     assert!(e.message.contains("the stored tare is kept"), "{e:?}");
     match e.cause.as_deref() {
@@ -122,6 +123,7 @@ async fn a_loaded_tare_is_refused_and_an_estimate_against_one_is_never_applied()
     let e = typed::<EstimateResult>(&mut c, estimate(true))
         .await
         .unwrap_err();
+    eprintln!("estimate against the loaded tare: {}", e.message);
     assert_eq!(e.code, ErrorCode::Failed, "{e:?}");
     assert!(e.message.contains("nothing applied"), "{e:?}");
     match e.cause.as_deref() {
@@ -172,6 +174,10 @@ async fn a_tare_from_before_a_controller_restart_is_reused_with_a_warning() {
     let driver = attach_payload(driver, &h, true).await;
     let est: EstimateResult = typed(&mut c, estimate(false)).await.unwrap();
     assert!((est.mass - 3.028).abs() < 0.03, "{est:?}");
+    eprintln!(
+        "estimate after the restart: {:.4} kg, {:?}",
+        est.mass, est.warnings
+    );
     match est.warnings.as_slice() {
         [EstimateWarning::TareFromBeforeRestart { evidence }] => {
             assert!(evidence.contains("1 controller restart"), "{evidence}");

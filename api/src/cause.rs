@@ -89,4 +89,159 @@ pub enum Cause {
         /// The controller's view in its last measurement, if any.
         fri: Option<FriContext>,
     },
+    /// The calibration recording holds a contact-like onset: a residual held far beyond the
+    /// rest of the recording (`safety::calibration::screen`); nothing was fitted or installed.
+    ContactInRecording {
+        /// Joint, 1..7.
+        joint: usize,
+        /// When the held residual first lay beyond the limit, s (the clock of `time_s`).
+        onset_s: f64,
+        /// When it peaked, s.
+        peak_s: f64,
+        /// The residual held over 0.1 s at the peak, Nm (signed).
+        residual_nm: f64,
+        /// The joint's residual envelope there without contact, Nm.
+        envelope_nm: f64,
+        /// The peak's score against the rest of the recording.
+        score: f64,
+        /// The score a recording without contact stays below.
+        limit: f64,
+    },
+    /// The estimate means nothing (`estimator::verdict`): it was not applied, and nothing
+    /// applies it.
+    EstimateRejected {
+        /// The estimated mass, kg.
+        #[serde(deserialize_with = "crate::results::lenient::nan")]
+        mass_kg: f64,
+        /// Its 1σ, kg.
+        #[serde(deserialize_with = "crate::results::lenient::nan")]
+        mass_std_kg: f64,
+        /// The estimated centre of mass in the flange frame, m (`null` where undetermined).
+        #[serde(deserialize_with = "crate::results::lenient::nan_array")]
+        com_flange_m: [f64; 3],
+        /// Every bound it breaks.
+        problems: Vec<EstimateProblem>,
+    },
+    /// The tare's own samples, fitted as a payload, see a load: refused unless
+    /// `replace_loaded` (the stored tare is kept).
+    LoadedTare {
+        /// The load's mass, kg.
+        mass_kg: f64,
+        /// Its 1σ, kg.
+        mass_std_kg: f64,
+        /// k: a load counts above k·σ.
+        sigmas: f64,
+        /// What the samples were compared with.
+        against: TareReference,
+    },
+    /// Calibrated thresholds above the configured ceiling (`[observer] calibration_ceiling_nm`,
+    /// at rest or as the median over the recording) are installed only with `allow_weaker`.
+    CalibrationAboveCeiling {
+        /// The joints above it.
+        joints: Vec<ThresholdAboveCeiling>,
+    },
+}
+
+/// A calibrated threshold above the configured ceiling: at rest, or as the median of the
+/// schedule over the recording (what the monitor runs at during the task).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ThresholdAboveCeiling {
+    /// Joint, 1..7.
+    pub joint: usize,
+    /// The calibrated threshold at rest θ0, Nm.
+    pub threshold_at_rest_nm: f64,
+    /// The median of the scheduled threshold over the recording, Nm.
+    pub threshold_median_nm: f64,
+    /// The ceiling, Nm.
+    pub ceiling_nm: f64,
+}
+
+/// Why an estimate means nothing (`estimator::verdict::Problem`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "problem", rename_all = "kebab-case")]
+pub enum EstimateProblem {
+    /// The mass is not significantly positive: m ≤ k·σ_m.
+    MassNotSignificant {
+        /// The mass, kg.
+        mass_kg: f64,
+        /// Its 1σ, kg.
+        mass_std_kg: f64,
+        /// k.
+        sigmas: f64,
+    },
+    /// The centre of mass lies beyond `[estimation] max_com_distance_m` of the flange point.
+    ComBeyondReach {
+        /// Its distance from the flange point, m.
+        distance_m: f64,
+        /// The bound, m.
+        max_m: f64,
+    },
+    /// σ_m above `[estimation] max_mass_std_kg`.
+    MassUncertain {
+        /// σ_m, kg.
+        mass_std_kg: f64,
+        /// The bound, kg.
+        max_kg: f64,
+    },
+    /// The centre of mass's RMS error above `[estimation] max_com_std_m`.
+    ComUncertain {
+        /// √(σx² + σy² + σz²), m.
+        com_std_m: f64,
+        /// The bound, m.
+        max_m: f64,
+    },
+}
+
+impl std::fmt::Display for EstimateProblem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            EstimateProblem::MassNotSignificant {
+                mass_kg,
+                mass_std_kg,
+                sigmas,
+            } => write!(
+                f,
+                "the mass {mass_kg:.4} ± {mass_std_kg:.4} kg is not significantly positive (it must exceed {sigmas}σ)"
+            ),
+            EstimateProblem::ComBeyondReach { distance_m, max_m } => write!(
+                f,
+                "the centre of mass lies {:.0} mm from the flange, beyond the {:.0} mm a payload held by it can reach",
+                distance_m * 1e3,
+                max_m * 1e3
+            ),
+            EstimateProblem::MassUncertain {
+                mass_std_kg,
+                max_kg,
+            } => write!(
+                f,
+                "the mass is uncertain by {mass_std_kg:.4} kg (1σ), more than {max_kg} kg"
+            ),
+            EstimateProblem::ComUncertain { com_std_m, max_m } => write!(
+                f,
+                "the centre of mass is uncertain by {:.1} mm (RMS), more than {:.1} mm",
+                com_std_m * 1e3,
+                max_m * 1e3
+            ),
+        }
+    }
+}
+
+/// What a tare's samples were compared with to see a load.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TareReference {
+    /// The stored tare at the same poses (taken after the last controller restart).
+    PreviousTare,
+    /// The controller's gravity vector (no usable stored tare).
+    ControllerGravity,
+}
+
+impl TareReference {
+    /// In words.
+    pub fn describe(self) -> &'static str {
+        match self {
+            TareReference::PreviousTare => "the stored tare at the same poses",
+            TareReference::ControllerGravity => "the controller's gravity vector",
+        }
+    }
 }

@@ -204,7 +204,9 @@ async fn a_recorded_log_feeds_estimate_motion() {
 async fn the_recorded_tare_feeds_offline_calibrate_and_estimate() {
     let dir = tempfile::tempdir().unwrap();
     let h = service(dir.path(), "rectare").await;
-    let sim = SimulationConfig::default();
+    // Unloaded: a tare that sees a load is refused.
+    let mut sim = SimulationConfig::default();
+    sim.payload.attached_at_start = false;
     let driver = mock_robot::spawn_new(sim, ServerConfig::loopback(h.fri, lockstep())).unwrap();
     let mut c = h.client().await.unwrap();
     wait_connected(&mut c).await;
@@ -214,6 +216,7 @@ async fn the_recorded_tare_feeds_offline_calibrate_and_estimate() {
             poses: Some(4),
             step_deg: Some(5.0),
             pattern: Some(fri_api::pattern::PatternKind::Paper),
+            replace_loaded: None,
         },
         |_, _| {},
     )

@@ -10,16 +10,24 @@ use fri_service::testkit::{InProcess, local_config};
 use mock_robot::{MockRobotHandle, ServerConfig, SimulationConfig, TimingMode};
 use serde_json::Value;
 
-/// The simulated controller, in lockstep with the service.
+/// The simulated controller (its payload attached), in lockstep with the service.
 fn controller(h: &InProcess) -> MockRobotHandle {
+    controller_with(h, SimulationConfig::default())
+}
+
+/// The simulated controller without its payload (a tare that sees a load is refused).
+fn unloaded_controller(h: &InProcess) -> MockRobotHandle {
+    let mut sim = SimulationConfig::default();
+    sim.payload.attached_at_start = false;
+    controller_with(h, sim)
+}
+
+/// The simulated controller `sim`, in lockstep with the service.
+fn controller_with(h: &InProcess, sim: SimulationConfig) -> MockRobotHandle {
     let mode = TimingMode::Lockstep {
         answer_timeout: Duration::from_millis(200),
     };
-    mock_robot::spawn_new(
-        SimulationConfig::default(),
-        ServerConfig::loopback(h.fri, mode),
-    )
-    .unwrap()
+    mock_robot::spawn_new(sim, ServerConfig::loopback(h.fri, mode)).unwrap()
 }
 
 async fn call(c: &mut Client, cmd: Command) -> Result<Value, OperatorError> {
@@ -156,7 +164,7 @@ async fn the_stored_tare_is_recorded_as_a_samples_file_the_offline_tools_read() 
     c.observer.armed = false;
     c.state.record_dir = Some(dir.path().join("rec"));
     let h = InProcess::start(c).await.unwrap();
-    let driver = controller(&h);
+    let driver = unloaded_controller(&h);
     let mut client = h.client().await.unwrap();
     wait_connected(&mut client).await;
     let socket = h.socket.clone();
@@ -187,6 +195,7 @@ async fn the_stored_tare_is_recorded_as_a_samples_file_the_offline_tools_read() 
             poses: Some(2),
             step_deg: Some(7.0),
             pattern: None,
+            replace_loaded: None,
         },
     )
     .await

@@ -99,6 +99,7 @@ async fn one(seed: u64, a: &Args) -> anyhow::Result<Outcome> {
         poses: None,
         step_deg: None,
         pattern: None,
+        replace_loaded: None,
     };
     let tare: TareResult = until_connected(&mut client, tare).await.context("tare")?;
     let declare = Command::ExpectPayload {

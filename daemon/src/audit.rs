@@ -159,11 +159,16 @@ fn weakens(change: &Change) -> bool {
         | Change::MonitorRestarted { .. }
         | Change::PayloadDeclaredUnknown { .. } => true,
         Change::HeldByService { cause, .. } => matches!(cause, StopCause::ObserverFault { .. }),
+        Change::TareStored { loaded, .. } => loaded.is_some(),
         Change::MonitorConfigured {
             weaker_than_configuration,
             ..
         }
         | Change::Restored {
+            weaker_than_configuration,
+            ..
+        }
+        | Change::CalibrationInstalled {
             weaker_than_configuration,
             ..
         } => !weaker_than_configuration.is_empty(),

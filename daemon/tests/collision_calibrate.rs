@@ -23,6 +23,7 @@ fn calibrate(
         duration_s,
         budget_per_hour,
         apply: Some(apply),
+        allow_weaker: None,
     }
 }
 
@@ -201,5 +202,204 @@ async fn calibrated_thresholds_are_per_joint_follow_the_budget_and_survive_a_res
     .unwrap();
     assert!(m.schedule.is_none() && m.calibration.is_none(), "{m:?}");
     drop(c);
+    h.stop().await;
+}
+
+/// The sweep q_A (joint 1 through ±66.7° with the arm stretched out) played by the controller
+/// itself, without payload: the task `current-task` records.
+fn sweeping_task(seed: u64) -> mock_robot::SimulationConfig {
+    let scenario = include_str!("../../mock-robot/scenarios/sweep-qa.toml");
+    let mut c = mock_robot::SimulationConfig::from_toml_str(scenario).unwrap();
+    c.seed = seed;
+    c.payload.attached_at_start = false;
+    // The script lasts ≈ 19 s; the controller keeps answering at rest after it.
+    c.duration_s = Some(600.0);
+    c
+}
+
+/// The issue's attack: 40 N pushed on link 4 from 8 s (200 N/s, held 4 s): joint 1 holds
+/// ≈ 16 Nm.
+fn push_40_n_on_link_4() -> mock_robot::contact::ContactSpec {
+    mock_robot::contact::ContactSpec {
+        link: 4,
+        point_m: [0.0, 0.0, 0.0],
+        onset_s: 8.0,
+        profile: mock_robot::contact::ContactProfile::Ramp {
+            direction: [0.0, 1.0, 0.0],
+            rate_n_per_s: 200.0,
+            max_force_n: 40.0,
+            duration_s: 4.0,
+        },
+    }
+}
+
+fn current_task(apply: bool, allow_weaker: Option<bool>) -> Command {
+    Command::CollisionCalibrate {
+        source: Some(CalibrationSource::CurrentTask),
+        duration_s: Some(25.0),
+        budget_per_hour: None,
+        apply: Some(apply),
+        allow_weaker,
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_push_during_a_disarmed_current_task_calibration_is_refused_and_nothing_installed() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut config = test_config(dir.path());
+    // As the issue: the monitor disarmed, so no collision aborts the recording.
+    config.observer.armed = false;
+    let h = Harness::start(config, dir).await;
+    let mut sim = sweeping_task(31);
+    sim.contacts.push(push_40_n_on_link_4());
+    let driver = mock_robot::spawn_new(sim, ServerConfig::loopback(h.fri, lockstep())).unwrap();
+    let mut c = h.client().await;
+    wait_connected(&mut c).await;
+    let before: CollisionResult = typed(&mut c, show()).await.unwrap();
+
+    let e = typed::<CalibrateResult>(&mut c, current_task(true, None))
+        .await
+        .unwrap_err();
+    assert_eq!(e.code, ErrorCode::Failed, "{e:?}");
+    assert!(e.message.contains("nothing installed"), "{e:?}");
+    match e.cause.as_deref() {
+        Some(Cause::ContactInRecording {
+            joint,
+            onset_s,
+            residual_nm,
+            score,
+            limit,
+            ..
+        }) => {
+            assert_eq!(*joint, 1, "{e:?}");
+            // The service's clock starts with the controller's first measurement.
+            assert!((*onset_s - 8.0).abs() < 0.5, "{e:?}");
+            assert!(residual_nm.abs() > 10.0 && score > limit, "{e:?}");
+        }
+        other => panic!("{other:?}"),
+    }
+    // Nothing changed, and the contaminated recording is refused again on a refit.
+    let after: CollisionResult = typed(&mut c, show()).await.unwrap();
+    assert_eq!(after, before);
+    assert!(!after.persisted && after.schedule.is_none());
+    let e = typed::<CalibrateResult>(
+        &mut c,
+        calibrate(Some(CalibrationSource::LastRecording), None, None, true),
+    )
+    .await
+    .unwrap_err();
+    assert!(
+        matches!(
+            e.cause.as_deref(),
+            Some(Cause::ContactInRecording { joint: 1, .. })
+        ),
+        "{e:?}"
+    );
+    drop(c);
+    drop(driver.join());
+    h.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn thresholds_above_the_ceiling_need_allow_weaker_and_are_audited_as_weaker() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut config = test_config(dir.path());
+    config.observer.armed = false;
+    // Below what the sweep calibrates on joint 1 (≈ 8 Nm median over the recording), above
+    // the other joints' (< 1 Nm).
+    config.observer.calibration_ceiling_nm = [4.0, 4.0, 4.0, 4.0, 4.0, 4.0, 4.0];
+    let h = Harness::start(config, dir).await;
+    let driver =
+        mock_robot::spawn_new(sweeping_task(32), ServerConfig::loopback(h.fri, lockstep()))
+            .unwrap();
+    let mut c = h.client().await;
+    wait_connected(&mut c).await;
+    let events = collect_watch(h.client().await, None).await;
+
+    // The preview names the joint above the ceiling.
+    let preview: CalibrateResult = typed(&mut c, current_task(false, None)).await.unwrap();
+    assert_eq!(
+        preview.above_ceiling.len(),
+        1,
+        "{:?}",
+        preview.above_ceiling
+    );
+    let above = preview.above_ceiling[0];
+    assert_eq!(above.joint, 1);
+    assert_eq!(above.ceiling_nm, 4.0);
+    assert_eq!(above.threshold_at_rest_nm, preview.schedule.thresholds[0]);
+    assert_eq!(
+        above.threshold_median_nm,
+        preview.joints[0].threshold_median
+    );
+    assert!(above.threshold_median_nm > 4.0, "{above:?}");
+    // `apply` alone refuses it; nothing is installed.
+    let e = typed::<CalibrateResult>(
+        &mut c,
+        calibrate(Some(CalibrationSource::LastRecording), None, None, true),
+    )
+    .await
+    .unwrap_err();
+    assert_eq!(e.code, ErrorCode::Failed, "{e:?}");
+    assert!(e.message.contains("allow_weaker"), "{e:?}");
+    assert_eq!(
+        e.cause.as_deref(),
+        Some(&Cause::CalibrationAboveCeiling {
+            joints: vec![above]
+        })
+    );
+    let m: CollisionResult = typed(&mut c, show()).await.unwrap();
+    assert!(m.schedule.is_none() && !m.persisted, "{m:?}");
+    // `allow_weaker` without `apply` is a mistake, not a silent no-op.
+    let e = typed::<CalibrateResult>(
+        &mut c,
+        Command::CollisionCalibrate {
+            source: Some(CalibrationSource::LastRecording),
+            duration_s: None,
+            budget_per_hour: None,
+            apply: Some(false),
+            allow_weaker: Some(true),
+        },
+    )
+    .await
+    .unwrap_err();
+    assert_eq!(e.code, ErrorCode::InvalidArguments, "{e:?}");
+    // With `allow_weaker` it is installed, and the audit trail says what is weaker.
+    let applied: CalibrateResult = typed(
+        &mut c,
+        Command::CollisionCalibrate {
+            source: Some(CalibrationSource::LastRecording),
+            duration_s: None,
+            budget_per_hour: None,
+            apply: Some(true),
+            allow_weaker: Some(true),
+        },
+    )
+    .await
+    .unwrap();
+    assert!(applied.applied && applied.settings.persisted);
+    assert_eq!(applied.above_ceiling, vec![above]);
+    wait_event(&events, "calibration audit", |e, d| {
+        e == "audit" && d["change"]["what"] == "calibration-installed"
+    })
+    .await;
+    let record = events
+        .lock()
+        .unwrap()
+        .iter()
+        .find(|(e, d)| e == "audit" && d["change"]["what"] == "calibration-installed")
+        .map(|(_, d)| d.clone())
+        .unwrap();
+    let weaker = record["change"]["weaker_than_configuration"]
+        .as_array()
+        .unwrap();
+    assert_eq!(weaker.len(), 1, "{record}");
+    let text = weaker[0].as_str().unwrap();
+    assert!(
+        text.contains("joint 1") && text.contains("ceiling") && text.contains("allow_weaker"),
+        "{text}"
+    );
+    drop(c);
+    drop(driver.join());
     h.stop().await;
 }

@@ -150,6 +150,7 @@ fn three_pose_tare() -> Command {
         poses: Some(3),
         step_deg: Some(7.0),
         pattern: None,
+        replace_loaded: None,
     }
 }
 

@@ -39,6 +39,7 @@ async fn collision_during_a_workflow_stops_the_arm_and_aborts() {
             poses: Some(2),
             step_deg: Some(7.0),
             pattern: None,
+            replace_loaded: None,
         },
     )
     .await
@@ -104,6 +105,7 @@ async fn loss_bursts_and_a_controller_restart_are_survived() {
             poses: Some(3),
             step_deg: Some(5.0),
             pattern: None,
+            replace_loaded: None,
         },
     )
     .await

@@ -44,6 +44,7 @@ async fn a_pattern_that_cannot_sample_returns_to_its_start_pose() {
             poses: Some(3),
             step_deg: Some(3.0),
             pattern: None,
+            replace_loaded: None,
         },
     )
     .await
@@ -88,6 +89,7 @@ async fn a_stop_mid_pattern_leaves_the_arm_held_and_says_how_to_go_on() {
                 poses: Some(4),
                 step_deg: Some(5.0),
                 pattern: None,
+                replace_loaded: None,
             },
             |event, data| {
                 if event == "progress" && data["phase"] == "moving" && data["step"] == 2 {

@@ -32,6 +32,7 @@ async fn tare_then_estimate_through_the_socket_and_persist_after_restart() {
                 poses: Some(6),
                 step_deg: Some(7.0),
                 pattern: None,
+                replace_loaded: None,
             },
             |ev, _| {
                 assert_eq!(ev, "progress");
@@ -271,6 +272,7 @@ async fn unbounded_pattern_centres_thresholds_and_gains_are_rejected_and_nothing
                 poses: Some(3),
                 step_deg: Some(7.0),
                 pattern: None,
+                replace_loaded: None,
             },
             "around[1]",
         ),

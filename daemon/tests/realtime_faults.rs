@@ -257,6 +257,7 @@ async fn tare_attempt(
                 poses: Some(6),
                 step_deg: Some(7.0),
                 pattern: None,
+                replace_loaded: None,
             },
             |_, _| {},
         )

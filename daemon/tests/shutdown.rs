@@ -48,6 +48,7 @@ async fn shutdown_during_a_move_answers_the_request_and_leaves_command_mode_by_h
                     poses: Some(6),
                     step_deg: Some(7.0),
                     pattern: None,
+                    replace_loaded: None,
                 },
                 move |_, data| {
                     if data["phase"] == "moving" {

@@ -348,12 +348,10 @@ async fn anything_but_a_stale_socket_at_the_stop_path_stops_the_start() {
         let mut config = fri_service::testkit::local_config(dir.path(), &format!("planted{k}"));
         config.operator.socket = dir.path().join(format!("op{k}.sock"));
         config.operator.stop_socket = Some(planted.clone());
-        let service = fri_service::service::RunningService::start(config).unwrap();
-        let (_tx, rx) = tokio::sync::watch::channel(false);
-        let err = tokio::time::timeout(Duration::from_secs(10), service.serve_operator(rx))
-            .await
-            .expect("the start did not fail")
-            .unwrap_err();
+        // Refused at start, before the endpoint answers anything (issue 20 item 7).
+        let Err(err) = fri_service::service::RunningService::start(config) else {
+            panic!("the start did not fail with {found} at the stop path");
+        };
         let text = format!("{err:#}");
         assert!(text.contains("operator.stop_socket"), "{text}");
         assert!(text.contains(found), "{text}");
@@ -361,7 +359,6 @@ async fn anything_but_a_stale_socket_at_the_stop_path_stops_the_start() {
             !dir.path().join(format!("op{k}.sock")).exists(),
             "operator socket opened without a stop socket"
         );
-        service.shutdown();
     }
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "not a socket");
     assert!(std::fs::symlink_metadata(&link).unwrap().is_symlink());

@@ -80,6 +80,7 @@ fn main() -> anyhow::Result<()> {
                             poses: Some(2),
                             step_deg: Some(2.0),
                             pattern: None,
+                            replace_loaded: None,
                         },
                         |_, _| {},
                     )

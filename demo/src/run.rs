@@ -308,6 +308,7 @@ async fn phases(
                 poses: Some(10),
                 step_deg: Some(7.0),
                 pattern: None,
+                replace_loaded: None,
             },
             |_, d| {
                 if d["phase"] == "sampled" {
@@ -808,6 +809,7 @@ async fn calibrate_thresholds(
                 duration_s: Some(CALIBRATION_RECORD_S),
                 budget_per_hour: None,
                 apply: Some(true),
+                allow_weaker: None,
             },
             |_, _| {},
         )

@@ -16,6 +16,8 @@
 //! - [`poses`]: pose design with predicted uncertainty;
 //! - [`samples`]: static-sample CSV and validation; [`plausible`]: recorded values against the
 //!   robot model's limits; [`lsq`]: least squares with covariance;
+//! - [`verdict`]: whether an estimate means anything (significant mass, centre of mass within
+//!   reach of the flange, bounded uncertainty) and whether a tare sees a load;
 //! - [`basis`]: numerical gravity base parameters; [`filter`]: zero-phase Butterworth and
 //!   differentiation; [`sim`]: synthetic data for tests and studies.
 //!
@@ -36,6 +38,7 @@ pub mod plausible;
 pub mod poses;
 pub mod samples;
 pub mod sim;
+pub mod verdict;
 
 pub use coefficients::{CoefficientEstimate, CoefficientSet};
 pub use correction::{Calibration, estimate_with_calibration, estimate_with_tare};

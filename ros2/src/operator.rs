@@ -113,6 +113,7 @@ impl Operator {
                     poses: None,
                     step_deg: None,
                     pattern: None,
+                    replace_loaded: None,
                 };
                 respond(self.call::<TareResult>(cmd, caller, on_event).await)
             }

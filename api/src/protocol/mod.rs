@@ -38,6 +38,11 @@ pub enum Command {
         /// Pose pattern (default `paper`).
         #[serde(default)]
         pattern: Option<crate::pattern::PatternKind>,
+        /// Store the tare even when its samples see a load (default false: such a tare is
+        /// refused and the stored one kept; a load that belongs to the arm, e.g. a gripper the
+        /// controller's model lacks, needs this once).
+        #[serde(default)]
+        replace_loaded: Option<bool>,
     },
     /// Drive the pose pattern with the payload, estimate it and return it with uncertainties.
     EstimatePayload {
@@ -117,6 +122,12 @@ pub enum Command {
         /// Install and persist the calibrated settings (default false: a preview).
         #[serde(default)]
         apply: Option<bool>,
+        /// With `apply`: install thresholds above the configured ceiling
+        /// (`[observer] calibration_ceiling_nm`, at rest or median over the recording) too —
+        /// they weaken detection, and the audit trail records by how much (default false:
+        /// refused).
+        #[serde(default)]
+        allow_weaker: Option<bool>,
     },
     /// Stop: hold the current position and abort any running workflow.
     Stop,

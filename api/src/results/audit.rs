@@ -57,6 +57,10 @@ pub enum Change {
         thresholds: [f64; 7],
         /// False alarms per hour the calibration was fitted for, whole arm.
         budget_per_hour: f64,
+        /// What makes them weaker than the configuration: thresholds at rest above
+        /// `[observer] calibration_ceiling_nm`, installed with `allow_weaker` (empty: none).
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        weaker_than_configuration: Vec<String>,
     },
     /// A payload was applied to the monitor (and persisted).
     PayloadApplied {
@@ -87,6 +91,9 @@ pub enum Change {
     TareStored {
         /// Static samples in it.
         samples: usize,
+        /// The load its samples saw, stored anyway with `replace_loaded` (absent: none seen).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        loaded: Option<super::TareLoad>,
     },
     /// The monitor detected a contact.
     Collision {
@@ -162,11 +169,15 @@ impl std::fmt::Display for Change {
             Change::CalibrationInstalled {
                 thresholds,
                 budget_per_hour,
-            } => write!(
-                f,
-                "calibrated thresholds installed: θ0 [Nm] {} for {budget_per_hour} false alarms/h",
-                values(thresholds, 2)
-            ),
+                weaker_than_configuration,
+            } => {
+                write!(
+                    f,
+                    "calibrated thresholds installed: θ0 [Nm] {} for {budget_per_hour} false alarms/h",
+                    values(thresholds, 2)
+                )?;
+                weaker(f, weaker_than_configuration)
+            }
             Change::PayloadApplied { mass, com } => write!(
                 f,
                 "payload applied: {mass:.4} kg at ({:.1}, {:.1}, {:.1}) mm in frame 7",
@@ -187,7 +198,19 @@ impl std::fmt::Display for Change {
             }
             Change::Stopped => f.write_str("arm stopped"),
             Change::Resumed => f.write_str("arm released"),
-            Change::TareStored { samples } => write!(f, "tare stored ({samples} samples)"),
+            Change::TareStored { samples, loaded } => {
+                write!(f, "tare stored ({samples} samples)")?;
+                match loaded {
+                    Some(l) => write!(
+                        f,
+                        "; it sees a LOAD of {:.4} ± {:.4} kg against {} (stored with replace_loaded)",
+                        l.mass_kg,
+                        l.mass_std_kg,
+                        l.against.describe()
+                    ),
+                    None => Ok(()),
+                }
+            }
             Change::Collision { link, residual } => write!(
                 f,
                 "collision on link {link}, residual [Nm] {}",

@@ -69,6 +69,10 @@ pub struct CalibrateResult {
     pub min_force_median: [LinkForce; 7],
     /// The payload applied during the recording (`null`: none).
     pub calibrated_for_payload: Option<AppliedPayload>,
+    /// Joints whose threshold at rest or median over the recording lies above the configured
+    /// ceiling (`[observer] calibration_ceiling_nm`): installing needs `allow_weaker`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub above_ceiling: Vec<crate::cause::ThresholdAboveCeiling>,
     /// Whether the settings were installed and persisted (`apply`).
     pub applied: bool,
     /// The monitor's settings now in force.

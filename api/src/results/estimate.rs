@@ -69,6 +69,32 @@ pub struct EstimateResult {
     /// The uncertainty by source; absent when the samples carried no evidence.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub uncertainty: Option<UncertaintyReport>,
+    /// What the operator should know about this estimate (empty: nothing).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<EstimateWarning>,
+}
+
+/// Something that makes an estimate less trustworthy without refusing it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+pub enum EstimateWarning {
+    /// The tare was taken before a controller restart: the torque sensors' offsets may have
+    /// changed since, and the estimate carries the difference as a payload.
+    TareFromBeforeRestart {
+        /// How the restart was seen.
+        evidence: String,
+    },
+}
+
+impl EstimateWarning {
+    /// In words, with what to do.
+    pub fn message(&self) -> String {
+        match self {
+            EstimateWarning::TareFromBeforeRestart { evidence } => format!(
+                "the tare was taken before a controller restart ({evidence}): its torque offsets may no longer hold; run `tare` again without payload"
+            ),
+        }
+    }
 }
 
 /// The uncertainty of an estimate by source (`estimator::error_model::Uncertainty`): the

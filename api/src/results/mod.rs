@@ -34,7 +34,8 @@ pub use audit::{AuditRecord, Change, ReleaseReason};
 pub use calibrate::{CalibrateResult, JointFit, LinkForce};
 pub use collision::{CalibrationInfo, CollisionResult, MonitorSettings, ThresholdSchedule};
 pub use estimate::{
-    Correction, EstimateMethod, EstimateResult, SourceShare, UncertaintyReport, UncertaintySource,
+    Correction, EstimateMethod, EstimateResult, EstimateWarning, SourceShare, UncertaintyReport,
+    UncertaintySource,
 };
 pub use event::{Event, RawEvent};
 pub use expect_payload::{DeclaredBy, ExpectPayloadResult, UnknownPayload};
@@ -46,7 +47,7 @@ pub use sample::SampleResult;
 pub use state::ServiceState;
 pub use status::{FriStatus, StatusResult};
 pub use stop::{ControllerLink, StopResult};
-pub use tare::{ProcedureTiming, TareResult};
+pub use tare::{ProcedureTiming, TareLoad, TareResult};
 pub use watch::{
     AbortReason, CollisionDetected, MonitorRestarted, MoveAborted, Resumed, ResyncReason,
     StateLine, StopCause, StopKind, Stopped, WatchResult, Watching,

@@ -12,6 +12,22 @@ pub struct TareResult {
     /// Where the procedure's robot time went.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub timing: Option<ProcedureTiming>,
+    /// The load the samples see, fitted as a payload (absent when the fit was not possible).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load: Option<TareLoad>,
+}
+
+/// The load a tare's samples see (`estimator::verdict::load_seen`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TareLoad {
+    /// The fitted mass, kg (about zero, or negative, without a load).
+    pub mass_kg: f64,
+    /// Its 1σ, kg.
+    pub mass_std_kg: f64,
+    /// Whether it is significantly above zero (stored only with `replace_loaded`).
+    pub loaded: bool,
+    /// What the samples were compared with.
+    pub against: crate::cause::TareReference,
 }
 
 /// Robot (controller) time of a pose-pattern procedure, split by phase, s.

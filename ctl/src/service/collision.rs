@@ -37,7 +37,13 @@ its last recording (`--source last-recording`) — fits how the residual grows w
 and an extreme-value distribution of what remains, and reports per joint the thresholds at \
 rest and in motion, the fit's uncertainty, the covered speeds and accelerations, and the \
 minimum detectable force per link. `--apply` installs and stores them with the payload applied \
-now; without it the result is a preview. Touching the arm during the recording aborts it.";
+now; without it the result is a preview. Touching the arm during the recording aborts it when \
+the monitor is armed; armed or not, the calibration refuses a recording in which the residual \
+holds a contact-like level (naming the joint and the time). Thresholds (at rest or median over \
+the recording) above the service's `[observer] calibration_ceiling_nm` (default an eighth of \
+the joint's torque limit: 22 Nm on joints 1–2, 12.5 on 3–5, 4.75 on 6–7) weaken detection: \
+`--apply` refuses them unless `--allow-weak` is given (the audit log then records them as \
+weaker).";
 
 /// Collision-monitor actions on the command line.
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -108,6 +114,10 @@ pub struct CollisionArgs {
     /// Install and store the calibrated thresholds (with `calibrate`; without: a preview).
     #[arg(long)]
     pub apply: bool,
+    /// With `calibrate --apply`: install thresholds above the service's
+    /// `[observer] calibration_ceiling_nm` too (they weaken detection; logged as weaker).
+    #[arg(long)]
+    pub allow_weak: bool,
     /// Output format.
     #[command(flatten)]
     pub output: JsonFlag,
@@ -130,10 +140,12 @@ impl Operation for CollisionArgs {
         let calibrating = self.source.is_some()
             || self.duration_s.is_some()
             || self.budget.is_some()
-            || self.apply;
+            || self.apply
+            || self.allow_weak;
         if calibrating {
             return Err(
-                "--source, --duration-s, --budget and --apply go with `calibrate`".to_owned(),
+                "--source, --duration-s, --budget, --apply and --allow-weak go with `calibrate`"
+                    .to_owned(),
             );
         }
         Ok(Command::Collision {

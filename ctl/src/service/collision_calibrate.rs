@@ -33,6 +33,9 @@ impl Operation for Calibrate<'_> {
 
     fn request(&self) -> Result<Command, String> {
         let a = self.0;
+        if a.allow_weak && !a.apply {
+            return Err("--allow-weak goes with --apply".to_owned());
+        }
         if a.thresholds.is_some()
             || a.gains.is_some()
             || a.reaction.is_some()
@@ -51,6 +54,7 @@ impl Operation for Calibrate<'_> {
             duration_s: a.duration_s,
             budget_per_hour: a.budget,
             apply: Some(a.apply),
+            allow_weaker: a.allow_weak.then_some(true),
         })
     }
 
@@ -125,6 +129,21 @@ impl Operation for Calibrate<'_> {
         };
         writeln!(out, "{}", row("at rest", forces(&r.min_force_at_rest)))?;
         writeln!(out, "{}", row("median θ", forces(&r.min_force_median)))?;
+        for a in &r.above_ceiling {
+            writeln!(
+                out,
+                "WEAKER         joint {}: θ {} Nm at rest, {} Nm median, above the ceiling {} Nm ([observer] calibration_ceiling_nm){}",
+                a.joint,
+                fixed(a.threshold_at_rest_nm, 2),
+                fixed(a.threshold_median_nm, 2),
+                fixed(a.ceiling_nm, 2),
+                if r.applied {
+                    "; installed with --allow-weak"
+                } else {
+                    "; --apply refuses it without --allow-weak"
+                }
+            )?;
+        }
         if r.applied {
             writeln!(out, "applied and stored:")?;
             print_monitor(&r.settings, out)

@@ -105,6 +105,66 @@ fn cause_lines(cause: &Cause) -> Vec<String> {
             speed_rad_s,
             limit_rad_s
         )],
+        Cause::ContactInRecording {
+            joint,
+            onset_s,
+            peak_s,
+            residual_nm,
+            envelope_nm,
+            score,
+            limit,
+        } => vec![format!(
+            "cause: contact-like onset in the calibration recording on joint {joint} at t = {} s (peak at {} s): the residual held {} Nm where it reaches {} Nm without contact (score {}, limit {}); nothing was installed: record again without touching the arm",
+            fixed(*onset_s, 3),
+            fixed(*peak_s, 3),
+            fixed(*residual_nm, 2),
+            fixed(*envelope_nm, 2),
+            fixed(*score, 1),
+            fixed(*limit, 1)
+        )],
+        Cause::CalibrationAboveCeiling { joints } => joints
+            .iter()
+            .map(|a| {
+                format!(
+                    "cause: joint {}: calibrated threshold {} Nm at rest, {} Nm median over the recording, above the ceiling {} Nm ([observer] calibration_ceiling_nm); `--allow-weak` installs it anyway",
+                    a.joint,
+                    fixed(a.threshold_at_rest_nm, 2),
+                    fixed(a.threshold_median_nm, 2),
+                    fixed(a.ceiling_nm, 2)
+                )
+            })
+            .collect(),
+        Cause::EstimateRejected {
+            mass_kg,
+            mass_std_kg,
+            com_flange_m,
+            problems,
+        } => {
+            let mut v = vec![format!(
+                "cause: the estimate means nothing and was not applied: {} ± {} kg, centre of mass [mm] in the flange frame {}",
+                fixed(*mass_kg, 4),
+                fixed(*mass_std_kg, 4),
+                com_flange_m
+                    .iter()
+                    .map(|c| fixed(c * 1e3, 0))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            )];
+            v.extend(problems.iter().map(|p| format!("  {p}")));
+            v
+        }
+        Cause::LoadedTare {
+            mass_kg,
+            mass_std_kg,
+            sigmas,
+            against,
+        } => vec![format!(
+            "cause: the tare's samples see a load of {} ± {} kg against {} (above {}σ); the stored tare was kept: remove the payload and run `tare` again, or `--replace-loaded` if the load belongs to the arm",
+            fixed(*mass_kg, 4),
+            fixed(*mass_std_kg, 4),
+            against.describe(),
+            sigmas
+        )],
         Cause::CommandModeNotEntered { fri } => {
             let mut v = vec![
                 "cause: the controller did not enter command mode in time (check the KRL program, quality and drives)".to_owned(),
@@ -151,6 +211,42 @@ mod tests {
         );
         assert!(text.contains("link 4 at t = 12.346 s"), "{text}");
         assert!(text.contains("7.25"), "{text}");
+    }
+
+    #[test]
+    fn a_refused_calibration_names_joint_time_and_what_was_held() {
+        let e = OperatorError::new(ErrorCode::Failed, "calibration refused").with_cause(
+            Cause::ContactInRecording {
+                joint: 1,
+                onset_s: 8.131,
+                peak_s: 10.49,
+                residual_nm: -15.8,
+                envelope_nm: 0.92,
+                score: 85.0,
+                limit: 10.1,
+            },
+        );
+        let text = lines(&e).join("\n");
+        assert!(text.contains("joint 1 at t = 8.131 s"), "{text}");
+        assert!(
+            text.contains("-15.80 Nm") && text.contains("0.92 Nm"),
+            "{text}"
+        );
+        let e = OperatorError::new(ErrorCode::Failed, "not installed").with_cause(
+            Cause::CalibrationAboveCeiling {
+                joints: vec![fri_api::cause::ThresholdAboveCeiling {
+                    joint: 1,
+                    threshold_at_rest_nm: 2.11,
+                    threshold_median_nm: 40.27,
+                    ceiling_nm: 22.0,
+                }],
+            },
+        );
+        let text = lines(&e).join("\n");
+        assert!(
+            text.contains("joint 1") && text.contains("40.27") && text.contains("--allow-weak"),
+            "{text}"
+        );
     }
 
     #[test]

@@ -29,7 +29,12 @@ aborts the workflow. A residual change of more than twice a joint's threshold be
 
 With a stored tare the pattern defaults to the tare's centre and pose count, and the tare is \
 subtracted; a pattern elsewhere is refused before the arm moves (`--tare false` estimates \
-without the tare).";
+without the tare). A tare from before a controller restart is used with a WARNING line.
+
+An estimate that means nothing fails (exit 3) and is never applied: a mass not above 3σ, a \
+centre of mass beyond the service's `[estimation] max_com_distance_m` of the flange (default \
+0.3 m), or a σ beyond `max_mass_std_kg` (0.1 kg) or `max_com_std_m` (0.05 m). The error names \
+each with its numbers; the usual reason is a tare taken with the payload attached.";
 
 /// `fri-ctl estimate-payload`.
 #[derive(Debug, Clone, Args)]
@@ -124,7 +129,11 @@ pub(super) fn print(r: &EstimateResult, out: &mut dyn Write) -> io::Result<()> {
     } else {
         "NOT applied (use --apply or `fri-ctl apply-payload`)"
     };
-    writeln!(out, "payload        {applied}")
+    writeln!(out, "payload        {applied}")?;
+    for w in &r.warnings {
+        writeln!(out, "WARNING        {}", w.message())?;
+    }
+    Ok(())
 }
 
 /// The σ by source: mass in g, CoM in mm (each source alone; the variances add up).
@@ -195,6 +204,11 @@ mod tests {
             around: [0.0; 7],
             applied: false,
             timing: None,
+            warnings: vec![fri_api::results::EstimateWarning::TareFromBeforeRestart {
+                evidence:
+                    "the controller's clock went back from 3600.000 s at the tare to 12.000 s"
+                        .into(),
+            }],
             uncertainty: Some(UncertaintyReport {
                 sources: vec![fri_api::results::SourceShare {
                     source: fri_api::results::UncertaintySource::Drift,
@@ -220,6 +234,10 @@ mod tests {
         assert!(text.contains("drift                   0.41"), "{text}");
         assert!(text.contains("2.30 measured over 14 increments"), "{text}");
         assert!(text.contains("since tare     5.3 s"), "{text}");
+        assert!(
+            text.contains("WARNING        the tare was taken before a controller restart (the controller's clock went back"),
+            "{text}"
+        );
         assert!(
             text.contains("stored tare subtracted") && text.contains("NOT applied"),
             "{text}"

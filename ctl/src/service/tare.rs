@@ -8,7 +8,7 @@ use fri_api::protocol::Command;
 use fri_api::results::TareResult;
 
 use super::JsonFlag;
-use super::format::{joint_header, joint_row, joint_row_deg, timing_line};
+use super::format::{fixed, joint_header, joint_row, joint_row_deg, timing_line};
 use super::pattern::PatternArgs;
 use super::runner::Operation;
 
@@ -16,7 +16,10 @@ use super::runner::Operation;
 pub(super) const HELP: &str = "\
 Drive the pose pattern WITHOUT payload and store the samples as tare: a later \
 `estimate-payload` over the same poses subtracts them (Δτ = τ_J(loaded) − τ_J(unloaded)), \
-which cancels the controller's gravity-model error. Remove the payload first.
+which cancels the controller's gravity-model error. Remove the payload first: the samples \
+are fitted as a payload (against the stored tare at the same poses, else against the \
+controller's gravity) and a load above 3σ refuses the tare (exit 3; the stored tare is kept) \
+unless `--replace-loaded` is given.
 
 THE ARM MOVES: the service enters command mode and drives every pose of the pattern (at most \
 ±step per joint around the centre), settles and samples at each, then returns to the start \
@@ -32,6 +35,11 @@ pub struct TareArgs {
     /// Pose pattern.
     #[command(flatten)]
     pub pattern: PatternArgs,
+    /// Store the tare even when its samples see a load (the stored tare is replaced; the
+    /// audit log records the load). For a load that belongs to the arm, e.g. a gripper the
+    /// controller's model lacks.
+    #[arg(long)]
+    pub replace_loaded: bool,
     /// Output format.
     #[command(flatten)]
     pub output: JsonFlag,
@@ -46,6 +54,7 @@ impl Operation for TareArgs {
             poses: self.pattern.poses,
             step_deg: self.pattern.step_deg,
             pattern: self.pattern.kind(),
+            replace_loaded: self.replace_loaded.then_some(true),
         })
     }
 
@@ -62,9 +71,26 @@ impl Operation for TareArgs {
         joint_header(out)?;
         joint_row_deg(out, "around", &r.around, 2)?;
         joint_row(out, "around", "rad", &r.around, 4)?;
-        match &r.timing {
-            Some(t) => writeln!(out, "{}", timing_line(t)),
-            None => Ok(()),
+        if let Some(t) = &r.timing {
+            writeln!(out, "{}", timing_line(t))?;
+        }
+        match &r.load {
+            Some(l) => writeln!(
+                out,
+                "load seen      {} ± {} kg against {}{}",
+                fixed(l.mass_kg, 4),
+                fixed(l.mass_std_kg, 4),
+                l.against.describe(),
+                if l.loaded {
+                    ": a LOAD, stored with --replace-loaded"
+                } else {
+                    " (none)"
+                }
+            ),
+            None => writeln!(
+                out,
+                "load seen      not checked (the samples cannot be fitted)"
+            ),
         }
     }
 }

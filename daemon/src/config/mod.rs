@@ -136,6 +136,20 @@ pub struct ObserverSettings {
     pub thresholds: [f64; JOINTS],
     /// Whether the collision monitor is armed at start (default true).
     pub armed: bool,
+    /// Largest calibrated threshold — at rest, and as the median of the schedule over the
+    /// recording — that `collision calibrate --apply` installs without `allow_weaker`, per
+    /// joint, Nm (default half of the thresholds' range top, an eighth of the joint's torque
+    /// limit: 22, 22, 12.5, 12.5, 12.5, 4.75, 4.75; one number sets every joint; each within
+    /// the thresholds' range). A calibration above it weakens detection: refused, or installed
+    /// with `allow_weaker` and logged as weaker than the configuration.
+    #[serde(deserialize_with = "per_joint::deserialize")]
+    pub calibration_ceiling_nm: [f64; JOINTS],
+}
+
+/// Default `[observer] calibration_ceiling_nm` of joint `j`, Nm: half of the largest threshold
+/// (`fri_api::bounds::threshold`), an eighth of the joint's torque limit.
+pub fn default_calibration_ceiling_nm(j: usize) -> f64 {
+    0.5 * fri_api::bounds::threshold(j).max
 }
 
 impl Default for ObserverSettings {
@@ -144,6 +158,7 @@ impl Default for ObserverSettings {
             gains: [safety::DEFAULT_GAIN; JOINTS],
             thresholds: [6.0; JOINTS],
             armed: true,
+            calibration_ceiling_nm: std::array::from_fn(default_calibration_ceiling_nm),
         }
     }
 }
@@ -235,6 +250,39 @@ pub struct EstimationConfig {
     /// Without a tare: 1σ of the per-joint constant error of Δτ = τ_J − g_ctrl (torque offset
     /// and the controller's model error at the poses), Nm (default 0.2).
     pub untared_offset_std: f64,
+    /// Farthest an estimate's centre of mass may lie from the flange point, m (default 0.3;
+    /// 0.01 to 1): beyond it the estimate means nothing and is refused, never applied; the
+    /// bound of `apply-payload` too (`estimator::verdict`).
+    pub max_com_distance_m: f64,
+    /// Largest 1σ of an estimate's mass, kg (default 0.1; 0.001 to 5): above it the estimate
+    /// is refused.
+    pub max_mass_std_kg: f64,
+    /// Largest RMS error √(σx² + σy² + σz²) of an estimate's centre of mass, m (default 0.05;
+    /// 0.001 to 1): above it the estimate is refused.
+    pub max_com_std_m: f64,
+    /// 1σ of the apparent mass the controller's gravity-model error gives a fit against its
+    /// gravity vector, kg (default 0.039, lwr4-model.md §4; 0 to 1): added to the fit's σ of an
+    /// estimate without a tare and of the load check of a tare without a stored one.
+    pub controller_model_mass_std_kg: f64,
+}
+
+impl EstimationConfig {
+    /// What an estimate must satisfy before it is reported or applied (the mass at least
+    /// `estimator::verdict::MASS_SIGNIFICANCE` σ above zero, and this section's bounds); against
+    /// the controller's gravity (`tared` false) its model error joins the mass σ.
+    pub fn verdict_bounds(&self, tared: bool) -> estimator::verdict::Bounds {
+        estimator::verdict::Bounds {
+            mass_sigmas: estimator::verdict::MASS_SIGNIFICANCE,
+            reference_mass_std_kg: if tared {
+                0.0
+            } else {
+                self.controller_model_mass_std_kg
+            },
+            max_com_distance_m: self.max_com_distance_m,
+            max_mass_std_kg: self.max_mass_std_kg,
+            max_com_std_m: self.max_com_std_m,
+        }
+    }
 }
 
 impl Default for EstimationConfig {
@@ -252,6 +300,10 @@ impl Default for EstimationConfig {
             drift_rate: 0.002,
             drift_prior_weight: 7.0,
             untared_offset_std: 0.2,
+            max_com_distance_m: estimator::verdict::MAX_COM_DISTANCE_M,
+            max_mass_std_kg: estimator::verdict::MAX_MASS_STD_KG,
+            max_com_std_m: estimator::verdict::MAX_COM_STD_M,
+            controller_model_mass_std_kg: estimator::verdict::CONTROLLER_MODEL_MASS_STD_KG,
         }
     }
 }

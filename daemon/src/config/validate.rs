@@ -89,6 +89,15 @@ impl Config {
                 )
             })?;
         }
+        for j in 0..JOINTS {
+            in_range_at(
+                "observer.calibration_ceiling_nm",
+                j,
+                o.calibration_ceiling_nm[j],
+                bounds::threshold(j),
+            )
+            .map_err(|e| with_note(e, "a ceiling within the thresholds' own range"))?;
+        }
         in_range("reaction.pause_s", self.reaction.pause_s, bounds::PAUSE_S)?;
         let u = &self.unknown_payload;
         in_range(
@@ -180,6 +189,26 @@ impl Config {
             "estimation.untared_offset_std",
             e.untared_offset_std,
             Range::new(1e-3, 5.0, "Nm"),
+        )?;
+        in_range(
+            "estimation.max_com_distance_m",
+            e.max_com_distance_m,
+            Range::new(0.01, 1.0, "m"),
+        )?;
+        in_range(
+            "estimation.max_mass_std_kg",
+            e.max_mass_std_kg,
+            Range::new(0.001, 5.0, "kg"),
+        )?;
+        in_range(
+            "estimation.max_com_std_m",
+            e.max_com_std_m,
+            Range::new(0.001, 1.0, "m"),
+        )?;
+        in_range(
+            "estimation.controller_model_mass_std_kg",
+            e.controller_model_mass_std_kg,
+            Range::new(0.0, 1.0, "kg"),
         )?;
         check(
             "operator.socket",

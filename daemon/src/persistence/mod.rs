@@ -104,6 +104,22 @@ pub struct Tare {
     /// The service's and the controller's clocks when the tare ended; absent in older files.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub clock: Option<Clocks>,
+    /// The service instance and the controller restarts its session had counted when the tare
+    /// ended (a later estimate tells a restart since); absent in older files.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub session: Option<SessionMark>,
+}
+
+/// Which controller session a stored tare belongs to: the service instance that took it and
+/// the controller restarts (sequence counter reset after a silence) it had counted by then.
+/// Counts of one instance are comparable; another instance's start from zero.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(deny_unknown_fields)]
+pub struct SessionMark {
+    /// The service instance (`ServiceCore::instance`).
+    pub instance: u64,
+    /// Controller restarts its FRI session had counted.
+    pub restarts: u64,
 }
 
 /// One instant on the service's clock (`time_s` of the states and samples, counted from the

@@ -39,6 +39,10 @@ fn tare_and_calibration_round_trip() {
             service_s: 12.0,
             controller_s: 3600.5,
         }),
+        session: Some(SessionMark {
+            instance: 42,
+            restarts: 3,
+        }),
     };
     store.save_tare(Some(&tare)).unwrap();
     assert_eq!(store.load_tare().unwrap(), Some(tare));

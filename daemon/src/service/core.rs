@@ -80,6 +80,9 @@ pub struct ServiceCore {
         Mutex<Option<super::workflow::calibrate::CalibrationRecording>>,
     /// The audit trail (`crate::audit`).
     pub(crate) audit: Arc<crate::audit::Audit>,
+    /// This service instance (its start on the host clock in ns, xor the process id): a stored
+    /// tare's controller-restart count is comparable only within one instance.
+    pub(crate) instance: u64,
 }
 
 impl std::fmt::Debug for ServiceCore {
@@ -188,6 +191,10 @@ impl ServiceCore {
             fri_state,
             calibration_recording: Mutex::new(None),
             audit,
+            instance: std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_nanos() as u64)
+                ^ u64::from(std::process::id()),
         }
     }
 

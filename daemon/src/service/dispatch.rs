@@ -7,7 +7,9 @@ use serde::Serialize;
 use serde_json::Value;
 
 use super::core::ServiceCore;
+use super::workflow::calibrate::CalibrateRequest;
 use super::workflow::collision::MonitorChange;
+use super::workflow::tare::TareRequest;
 use crate::operator::server::{EventSink, Handler};
 use crate::persistence::AppliedPayload;
 use fri_api::origin::Origin;
@@ -65,18 +67,27 @@ impl Handler for Dispatcher {
                 poses,
                 step_deg,
                 pattern,
+                replace_loaded,
             } => reply(
                 s.tare(
-                    around,
-                    poses,
-                    step_deg,
-                    pattern.unwrap_or(s.config.estimation.pattern),
+                    TareRequest {
+                        around,
+                        poses,
+                        step_deg,
+                        kind: pattern.unwrap_or(s.config.estimation.pattern),
+                        replace_loaded: replace_loaded.unwrap_or(false),
+                    },
                     &events,
                 )
                 .await
                 .inspect(|t| {
-                    s.audit
-                        .record(&origin, Change::TareStored { samples: t.samples });
+                    s.audit.record(
+                        &origin,
+                        Change::TareStored {
+                            samples: t.samples,
+                            loaded: t.load.filter(|l| l.loaded),
+                        },
+                    );
                 }),
             ),
             Command::EstimatePayload {
@@ -147,12 +158,16 @@ impl Handler for Dispatcher {
                 duration_s,
                 budget_per_hour,
                 apply,
+                allow_weaker,
             } => reply(
                 s.collision_calibrate(
-                    source.unwrap_or_default(),
-                    duration_s,
-                    budget_per_hour,
-                    apply.unwrap_or(false),
+                    CalibrateRequest {
+                        source: source.unwrap_or_default(),
+                        duration_s,
+                        budget_per_hour,
+                        apply: apply.unwrap_or(false),
+                        allow_weaker: allow_weaker.unwrap_or(false),
+                    },
                     &origin,
                     &events,
                 )

@@ -198,11 +198,12 @@ impl RunningService {
         };
         // Checked now so a bad `state.record_dir` stops the start, not a recording.
         crate::recordings::RecordDir::open(&config.state.record_dir())?;
-        let listener = crate::operator::listener::bind(&config.operator.socket)
-            .with_context(|| format!("operator.socket {}", config.operator.socket.display()))?;
+        // The stop path first: no operator socket is created when the stop socket cannot be.
         let stop_path = config.operator.stop_socket_path();
         let stop_listener = crate::operator::listener::bind(&stop_path)
             .with_context(|| format!("operator.stop_socket {}", stop_path.display()))?;
+        let listener = crate::operator::listener::bind(&config.operator.socket)
+            .with_context(|| format!("operator.socket {}", config.operator.socket.display()))?;
 
         let (ipc_thread, ipc) = if config.iceoryx2.enabled {
             let names = IpcNames {

@@ -92,6 +92,7 @@ pub fn six_pose_tare() -> Command {
         poses: Some(6),
         step_deg: Some(7.0),
         pattern: None,
+        replace_loaded: None,
     }
 }
 

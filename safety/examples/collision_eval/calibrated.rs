@@ -277,7 +277,7 @@ fn record_calibration(
             let f = *tracker.step(&input.q, &out.velocity, T);
             // The monitor's warm-up (50 ms): start-up transients are not free motion.
             if k > 50 {
-                rec.push(&out.residual, &f);
+                rec.push(out.time_s, &out.residual, &f);
                 if w == 0
                     && let Some((file, peak, low)) = &mut dump
                 {

@@ -10,23 +10,24 @@
 //! result reports the fit, the covered motion and the minimum detectable force per link, and
 //! `apply` installs and persists the thresholds with the payload they were calibrated for.
 //! Any collision, stop or gap in the recording ends the workflow with its cause: a recording
-//! with a contact in it would calibrate the contact away.
+//! with a contact in it would calibrate the contact away. The fit judges the recording itself
+//! too, armed or not (`safety::calibration::screen`): a contact-like onset refuses it with
+//! `Cause::ContactInRecording`. `apply` installs thresholds whose value at rest or median over
+//! the recording lies above `[observer] calibration_ceiling_nm` only with `allow_weaker`, and
+//! the audit trail records them as weaker than the configuration.
 
 use fri_api::cause::Cause;
 use fri_api::origin::Origin;
 use fri_api::pattern::PatternKind;
 use fri_api::protocol::{CalibrationSource, ErrorCode, OperatorError};
-use fri_api::results::{
-    AppliedPayload as AppliedPayloadResult, CalibrateResult, CalibrationInfo, Event, JointFit,
-    LinkForce, Phase, Progress, ThresholdSchedule, Workflow,
-};
-use safety::calibration::{Calibration, EnvelopeRecorder, FitOptions, minimum_detectable_force};
-use safety::{FeatureTracker, lwr4_link_surfaces};
+use fri_api::results::{CalibrateResult, Event, Phase, Progress, Workflow};
+use safety::FeatureTracker;
+use safety::calibration::{EnvelopeRecorder, FitOptions};
 use tokio::sync::broadcast::error::RecvError;
 use tokio::sync::watch;
 
+use super::calibration_report::{above_ceiling, refused};
 use super::motion::SilenceTimer;
-use super::status::applied;
 use crate::operator::server::EventSink;
 use crate::persistence::{AppliedPayload, StoredMonitor};
 use crate::service::core::{ServiceCore, compensation, err, same_payload};
@@ -50,8 +51,6 @@ const SWEEP_CENTRES_DEG: [[f64; 7]; 3] = [
 const PATTERN_POSES: usize = 10;
 /// Its increment, deg.
 const PATTERN_STEP_DEG: f64 = 7.0;
-/// Configurations sampled per link for the minimum detectable force.
-const FORCE_SAMPLES: usize = 1000;
 
 /// A recording kept for `last-recording`.
 #[derive(Debug, Clone)]
@@ -99,18 +98,43 @@ pub fn excitation_targets(model: &dynamics::Model<7>, start: &[f64; 7]) -> Vec<[
     targets
 }
 
+/// The arguments of `collision-calibrate` (protocol defaults applied).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CalibrateRequest {
+    /// What to fit on.
+    pub source: CalibrationSource,
+    /// Recording length, s.
+    pub duration_s: Option<f64>,
+    /// False alarms per hour, whole arm (default [`DEFAULT_BUDGET_PER_HOUR`]).
+    pub budget_per_hour: Option<f64>,
+    /// Install and persist the result.
+    pub apply: bool,
+    /// With `apply`: install thresholds above `[observer] calibration_ceiling_nm` too.
+    pub allow_weaker: bool,
+}
+
 impl ServiceCore {
     /// `collision-calibrate` (see the module documentation).
     pub async fn collision_calibrate(
         &self,
-        source: CalibrationSource,
-        duration_s: Option<f64>,
-        budget_per_hour: Option<f64>,
-        apply: bool,
+        request: CalibrateRequest,
         origin: &Origin,
         events: &EventSink,
     ) -> Result<CalibrateResult, OperatorError> {
+        let CalibrateRequest {
+            source,
+            duration_s,
+            budget_per_hour,
+            apply,
+            allow_weaker,
+        } = request;
         let _guard = self.busy()?;
+        if allow_weaker && !apply {
+            return Err(err(
+                ErrorCode::InvalidArguments,
+                "`allow_weaker` goes with `apply` (it lets apply install thresholds above [observer] calibration_ceiling_nm); nothing was done",
+            ));
+        }
         let budget = budget_per_hour.unwrap_or(DEFAULT_BUDGET_PER_HOUR);
         // The parser checked the ranges; a direct caller gets the same errors.
         fri_api::bounds::FALSE_ALARM_BUDGET
@@ -165,13 +189,22 @@ impl ServiceCore {
         options.budget_per_hour = budget;
         options.floor_nm = nalgebra::SVector::repeat(fri_api::bounds::MIN_THRESHOLD_NM);
         options.ceiling_nm = nalgebra::SVector::from_fn(|j, _| fri_api::bounds::threshold(j).max);
-        let fit = recording
-            .recorder
-            .fit(&options)
-            .map_err(|e| err(ErrorCode::Failed, format!("calibration failed: {e}")))?;
+        let fit = recording.recorder.fit(&options).map_err(refused)?;
         let result = self.calibration_result(source, &fit, recording.payload)?;
         if !apply {
             return Ok(result);
+        }
+        if !result.above_ceiling.is_empty() && !allow_weaker {
+            return Err(err(
+                ErrorCode::Failed,
+                format!(
+                    "not installed: the calibrated thresholds weaken detection beyond [observer] calibration_ceiling_nm — {}. Was the arm touched during the recording, or does the budget ask for too few false alarms? Calibrate again, or install them anyway with `allow_weaker` (logged as weaker than the configuration)",
+                    above_ceiling(&result.above_ceiling).join("; ")
+                ),
+            )
+            .with_cause(Cause::CalibrationAboveCeiling {
+                joints: result.above_ceiling.clone(),
+            }));
         }
         let (gains, reaction, pause_s) = self.persistent(|s| (s.gains, s.reaction, s.pause_s));
         self.install_monitor(StoredMonitor {
@@ -188,6 +221,10 @@ impl ServiceCore {
             fri_api::results::Change::CalibrationInstalled {
                 thresholds: result.schedule.thresholds,
                 budget_per_hour: budget,
+                weaker_than_configuration: above_ceiling(&result.above_ceiling)
+                    .into_iter()
+                    .map(|w| format!("{w} (installed with allow_weaker)"))
+                    .collect(),
             },
         );
         Ok(CalibrateResult {
@@ -310,7 +347,7 @@ impl ServiceCore {
                         if settle > 0 {
                             settle -= 1;
                         } else {
-                            recorder.push(&nalgebra::SVector::from(r.residual), &features);
+                            recorder.push(r.time_s, &nalgebra::SVector::from(r.residual), &features);
                         }
                         let elapsed = r.time_s - t0;
                         if elapsed as u64 > reported {
@@ -375,80 +412,5 @@ impl ServiceCore {
             ));
         }
         Ok(CalibrationRecording { recorder, payload })
-    }
-
-    /// The result of a fit: per-joint fits, the schedule, the minimum detectable forces.
-    fn calibration_result(
-        &self,
-        source: CalibrationSource,
-        fit: &Calibration<7>,
-        payload: Option<AppliedPayload>,
-    ) -> Result<CalibrateResult, OperatorError> {
-        let surfaces = lwr4_link_surfaces();
-        let forces = |theta: &nalgebra::SVector<f64, 7>| -> [LinkForce; 7] {
-            let f =
-                minimum_detectable_force(&self.model, &surfaces, theta, FORCE_SAMPLES, 0.8, 2017);
-            std::array::from_fn(|l| LinkForce {
-                median: f[l].median_n,
-                p10: f[l].p10_n,
-                p90: f[l].p90_n,
-            })
-        };
-        let array = |v: &nalgebra::SVector<f64, 7>| -> [f64; 7] { std::array::from_fn(|j| v[j]) };
-        let joints: Vec<JointFit> = fit
-            .joints
-            .iter()
-            .map(|j| JointFit {
-                threshold_at_rest: j.threshold_at_rest_nm,
-                threshold_median: j.threshold_median_nm,
-                threshold_max: j.threshold_max_nm,
-                envelope: j.envelope,
-                model: match j.model {
-                    safety::calibration::ExtremeModel::Gumbel => "gumbel".to_owned(),
-                    safety::calibration::ExtremeModel::Gev => "gev".to_owned(),
-                },
-                shape_interval: j.shape_interval,
-                scale: j.scale,
-                scale_point: j.scale_point,
-                scale_std: j.scale_std,
-                scale_interval: j.scale_interval,
-                peak: j.peak_nm,
-                exceedances: j.exceedances,
-            })
-            .collect();
-        if joints.len() != 7 {
-            return Err(err(ErrorCode::Internal, "calibration without seven joints"));
-        }
-        let schedule = ThresholdSchedule {
-            thresholds: array(&fit.thresholds_nm),
-            speed: array(&fit.velocity_coefficients),
-            velocity_noise: array(&fit.schedule.velocity_noise),
-            payload_dynamics: array(&fit.schedule.payload_dynamics),
-            inertial: array(&fit.schedule.inertial),
-            gravity: array(&fit.schedule.gravity),
-            scale: array(&fit.scale),
-        };
-        let recording = CalibrationInfo {
-            budget_per_hour: fit.budget_per_hour,
-            duration_s: fit.duration_s,
-            blocks: fit.blocks,
-            block_s: fit.block_s,
-            max_speed: std::array::from_fn(|j| fit.joints[j].max_speed),
-            max_acceleration: std::array::from_fn(|j| fit.joints[j].max_acceleration),
-        };
-        let payload_result: Option<AppliedPayloadResult> = payload.as_ref().map(applied);
-        Ok(CalibrateResult {
-            source,
-            budget_per_hour: fit.budget_per_hour,
-            confidence: fit.confidence,
-            recording,
-            joints,
-            min_force_at_rest: forces(&fit.thresholds_nm),
-            min_force_median: forces(&fit.median_thresholds_nm),
-            schedule,
-            calibrated_for_payload: payload_result,
-            applied: false,
-            settings: self.monitor_settings(),
-        })
     }
 }

@@ -4,8 +4,8 @@
 use dynamics::Model;
 use fri_api::origin::Origin;
 use fri_api::results::{
-    Correction, EstimateMethod, EstimateResult, Event, Phase, Progress, SourceShare,
-    UncertaintyReport, UncertaintySource, Workflow,
+    Correction, EstimateMethod, EstimateResult, EstimateWarning, Event, Phase, Progress,
+    SourceShare, UncertaintyReport, UncertaintySource, Workflow,
 };
 use nalgebra::SVector;
 
@@ -14,7 +14,9 @@ use estimator::estimate::{Correction as EstimatorCorrection, Method, PayloadEsti
 
 use crate::config::EstimationConfig;
 
+use super::estimate_verdict::judged;
 use super::poses::PatternRequest;
+use super::tare_epoch::restart_since;
 use crate::ipc::PayloadEstimate as IpcPayload;
 use crate::operator::server::EventSink;
 use crate::persistence::{AppliedPayload, Clocks, StaticSample, Tare};
@@ -86,15 +88,10 @@ impl ServiceCore {
             }))
             .await;
         let loaded: Vec<StaticSample> = samples.iter().map(|s| s.sample).collect();
-        // every loaded pose must have a tare sample (any order, revisits allowed)
         let tolerance = estimator::correction::DEFAULT_TARE_TOLERANCE;
-        let tare_matches = tare.as_ref().is_some_and(|t| {
-            loaded.iter().all(|l| {
-                t.samples
-                    .iter()
-                    .any(|u| (0..7).all(|j| (u.q[j] - l.q[j]).abs() < tolerance))
-            })
-        });
+        let tare_matches = tare
+            .as_ref()
+            .is_some_and(|t| tare_covers_samples(t, &loaded));
         let use_tare = match use_tare {
             // a stored tare chose these poses: not matching it is an error, never a silent
             // estimate without it
@@ -115,12 +112,29 @@ impl ServiceCore {
             Some(u) => u,
             None => tare_matches,
         };
-        let (estimate, uncertainty) = estimate(
+        let tare_used = if use_tare { tare.as_ref() } else { None };
+        let warnings: Vec<EstimateWarning> = tare_used
+            .and_then(|t| restart_since(t, start_clock, self.session_mark()))
+            .map(|evidence| EstimateWarning::TareFromBeforeRestart { evidence })
+            .into_iter()
+            .collect();
+        for w in &warnings {
+            tracing::warn!(warning = %w.message(), "estimate-payload");
+        }
+        let fitted = estimate_fit(
             &self.model,
             &loaded,
-            if use_tare { tare.as_ref() } else { None },
+            tare_used,
             &self.config.estimation,
             start_clock,
+        );
+        // An estimate that means nothing is refused here: never reported as a result, never
+        // published, never applied (by `apply` or by ending the unknown-payload mode).
+        let (estimate, uncertainty) = judged(
+            fitted,
+            &self.config.estimation,
+            tare_used.is_some(),
+            &warnings,
         )?;
         let e = &estimate;
         let result = EstimateResult {
@@ -155,6 +169,7 @@ impl ServiceCore {
             applied: apply,
             timing: Some(timing),
             uncertainty: uncertainty.map(|u| report(&u.uncertainty, u.since_tare_s)),
+            warnings,
         };
         if let Some(ipc) = &self.ipc {
             ipc.payload(&IpcPayload {
@@ -284,6 +299,19 @@ pub fn estimate(
     config: &EstimationConfig,
     start: Option<Clocks>,
 ) -> Result<(PayloadEstimate, Option<TaredUncertainty>), OperatorError> {
+    estimate_fit(model, loaded, tare, config, start)
+        .map_err(|e| err(ErrorCode::Failed, format!("estimation failed: {e}")))
+}
+
+/// [`estimate`] with the estimator's own error (a mass ≤ 0 stays
+/// `EstimatorError::NonPositiveMass`, for the verdict).
+pub fn estimate_fit(
+    model: &Model<7>,
+    loaded: &[StaticSample],
+    tare: Option<&Tare>,
+    config: &EstimationConfig,
+    start: Option<Clocks>,
+) -> Result<(PayloadEstimate, Option<TaredUncertainty>), estimator::EstimatorError> {
     let options = estimator::estimate::EstimateOptions {
         // Averaged samples: the velocity check is done by the settle detector.
         static_check: estimator::samples::StaticCheck {
@@ -292,8 +320,6 @@ pub fn estimate(
         },
         ..Default::default()
     };
-    let failed =
-        |e: estimator::EstimatorError| err(ErrorCode::Failed, format!("estimation failed: {e}"));
     let with_evidence = |s: &[StaticSample]| s.iter().all(|x| x.evidence.is_some());
     if with_evidence(loaded) && tare.is_none_or(|t| with_evidence(&t.samples)) {
         let drift = DriftPrior {
@@ -312,8 +338,7 @@ pub fn estimate(
             let first = loaded.iter().map(time).fold(f64::INFINITY, f64::min);
             first - t.iter().map(time).fold(f64::NEG_INFINITY, f64::max)
         });
-        let (e, u) =
-            estimate_modelled(model, loaded, reference, drift, &options).map_err(failed)?;
+        let (e, u) = estimate_modelled(model, loaded, reference, drift, &options)?;
         return Ok((
             e,
             Some(TaredUncertainty {
@@ -332,7 +357,7 @@ pub fn estimate(
             .collect(),
         None => loaded.iter().map(|l| to_est(l, &l.gravity)).collect(),
     };
-    let e = estimator::estimate::estimate_direct(model, &samples, &options).map_err(failed)?;
+    let e = estimator::estimate::estimate_direct(model, &samples, &options)?;
     Ok((e, None))
 }
 
@@ -393,4 +418,15 @@ fn on_loaded_clock(
         "the controller's clock restarted since the tare: drift interval from the wall clock"
     );
     shifted(first - gap - tare_end)
+}
+
+/// Whether every sample of `loaded` has a sample of `tare` at its pose (within the tare
+/// tolerance; any order, revisits allowed).
+pub(crate) fn tare_covers_samples(tare: &Tare, loaded: &[StaticSample]) -> bool {
+    let tolerance = estimator::correction::DEFAULT_TARE_TOLERANCE;
+    loaded.iter().all(|l| {
+        tare.samples
+            .iter()
+            .any(|u| (0..7).all(|j| (u.q[j] - l.q[j]).abs() < tolerance))
+    })
 }

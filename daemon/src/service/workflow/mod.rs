@@ -5,8 +5,10 @@
 
 pub mod acquire;
 pub mod calibrate;
+pub mod calibration_report;
 pub mod collision;
 pub mod estimate;
+pub mod estimate_verdict;
 pub mod expect_payload;
 pub mod motion;
 pub mod payload;
@@ -16,4 +18,5 @@ pub mod sample;
 pub mod status;
 pub mod stop;
 pub mod tare;
+pub mod tare_epoch;
 pub mod watch;

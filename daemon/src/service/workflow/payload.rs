@@ -13,6 +13,31 @@ use crate::service::cycle::CycleRequest;
 use fri_api::protocol::{ErrorCode, OperatorError};
 
 impl ServiceCore {
+    /// A payload's centre of mass must lie within `[estimation] max_com_distance_m` of the
+    /// flange point, as an estimate's must (`estimator::verdict`): a payload the flange holds
+    /// cannot have it farther. The mass is the operator's statement and keeps its own range.
+    fn check_reach(&self, p: &AppliedPayload) -> Result<(), OperatorError> {
+        if p.mass <= 0.0 {
+            return Ok(());
+        }
+        let com7 = nalgebra::Point3::from(nalgebra::Vector3::from(p.com));
+        let c = self.model.flange().inverse_transform_point(&com7).coords;
+        let distance = estimator::verdict::com_distance_from_flange(&[c.x, c.y, c.z]);
+        let reach =
+            fri_api::bounds::Range::new(0.0, self.config.estimation.max_com_distance_m, "m");
+        reach
+            .check("com (distance from the flange point)", distance)
+            .map_err(|e| {
+                let mut e = OperatorError::out_of_range(e);
+                e.message = format!(
+                    "{} ([estimation] max_com_distance_m): a payload held by the flange has its centre of mass within reach; com is in frame 7, whose origin lies {:.0} mm behind the flange point",
+                    e.message,
+                    self.model.flange().translation.vector.norm() * 1e3
+                );
+                e
+            })
+    }
+
     /// `apply-payload`: to the observer and persisted.
     pub fn apply_payload(
         &self,
@@ -30,6 +55,7 @@ impl ServiceCore {
                     "mass must be in [0, 20] kg and each com coordinate in [-1, 1] m",
                 ));
             }
+            self.check_reach(p)?;
         }
         self.send(CycleRequest::SetPayload(p.as_ref().map(compensation)))?;
         self.store.save_payload(p.as_ref()).map_err(|e| {

@@ -1,0 +1,141 @@
+//! What `collision-calibrate` reports of a fit: per-joint fits, the schedule, the minimum
+//! detectable forces, the joints above `[observer] calibration_ceiling_nm`; and the operator
+//! error of a fit that was refused.
+
+use fri_api::cause::{Cause, ThresholdAboveCeiling};
+use fri_api::protocol::{CalibrationSource, ErrorCode, OperatorError};
+use fri_api::results::{
+    AppliedPayload as AppliedPayloadResult, CalibrateResult, CalibrationInfo, JointFit, LinkForce,
+    ThresholdSchedule,
+};
+use safety::calibration::{Calibration, CalibrationError, minimum_detectable_force};
+use safety::lwr4_link_surfaces;
+
+use super::status::applied;
+use crate::persistence::AppliedPayload;
+use crate::service::core::{ServiceCore, err};
+
+/// Configurations sampled per link for the minimum detectable force.
+const FORCE_SAMPLES: usize = 1000;
+
+impl ServiceCore {
+    /// The result of a fit: per-joint fits, the schedule, the minimum detectable forces.
+    pub(super) fn calibration_result(
+        &self,
+        source: CalibrationSource,
+        fit: &Calibration<7>,
+        payload: Option<AppliedPayload>,
+    ) -> Result<CalibrateResult, OperatorError> {
+        let surfaces = lwr4_link_surfaces();
+        let forces = |theta: &nalgebra::SVector<f64, 7>| -> [LinkForce; 7] {
+            let f =
+                minimum_detectable_force(&self.model, &surfaces, theta, FORCE_SAMPLES, 0.8, 2017);
+            std::array::from_fn(|l| LinkForce {
+                median: f[l].median_n,
+                p10: f[l].p10_n,
+                p90: f[l].p90_n,
+            })
+        };
+        let array = |v: &nalgebra::SVector<f64, 7>| -> [f64; 7] { std::array::from_fn(|j| v[j]) };
+        let joints: Vec<JointFit> = fit
+            .joints
+            .iter()
+            .map(|j| JointFit {
+                threshold_at_rest: j.threshold_at_rest_nm,
+                threshold_median: j.threshold_median_nm,
+                threshold_max: j.threshold_max_nm,
+                envelope: j.envelope,
+                model: match j.model {
+                    safety::calibration::ExtremeModel::Gumbel => "gumbel".to_owned(),
+                    safety::calibration::ExtremeModel::Gev => "gev".to_owned(),
+                },
+                shape_interval: j.shape_interval,
+                scale: j.scale,
+                scale_point: j.scale_point,
+                scale_std: j.scale_std,
+                scale_interval: j.scale_interval,
+                peak: j.peak_nm,
+                exceedances: j.exceedances,
+            })
+            .collect();
+        if joints.len() != 7 {
+            return Err(err(ErrorCode::Internal, "calibration without seven joints"));
+        }
+        let schedule = ThresholdSchedule {
+            thresholds: array(&fit.thresholds_nm),
+            speed: array(&fit.velocity_coefficients),
+            velocity_noise: array(&fit.schedule.velocity_noise),
+            payload_dynamics: array(&fit.schedule.payload_dynamics),
+            inertial: array(&fit.schedule.inertial),
+            gravity: array(&fit.schedule.gravity),
+            scale: array(&fit.scale),
+        };
+        let recording = CalibrationInfo {
+            budget_per_hour: fit.budget_per_hour,
+            duration_s: fit.duration_s,
+            blocks: fit.blocks,
+            block_s: fit.block_s,
+            max_speed: std::array::from_fn(|j| fit.joints[j].max_speed),
+            max_acceleration: std::array::from_fn(|j| fit.joints[j].max_acceleration),
+        };
+        let payload_result: Option<AppliedPayloadResult> = payload.as_ref().map(applied);
+        let ceiling = &self.config.observer.calibration_ceiling_nm;
+        let above_ceiling = (0..7)
+            .filter(|&j| fit.thresholds_nm[j].max(fit.median_thresholds_nm[j]) > ceiling[j])
+            .map(|j| ThresholdAboveCeiling {
+                joint: j + 1,
+                threshold_at_rest_nm: fit.thresholds_nm[j],
+                threshold_median_nm: fit.median_thresholds_nm[j],
+                ceiling_nm: ceiling[j],
+            })
+            .collect();
+        Ok(CalibrateResult {
+            source,
+            budget_per_hour: fit.budget_per_hour,
+            confidence: fit.confidence,
+            recording,
+            joints,
+            min_force_at_rest: forces(&fit.thresholds_nm),
+            min_force_median: forces(&fit.median_thresholds_nm),
+            schedule,
+            calibrated_for_payload: payload_result,
+            above_ceiling,
+            applied: false,
+            settings: self.monitor_settings(),
+        })
+    }
+}
+
+/// The operator error of a fit that failed: a recording with a contact-like onset is refused
+/// with its typed cause (joint, time, held residual).
+pub(super) fn refused(e: CalibrationError) -> OperatorError {
+    match e {
+        CalibrationError::ContactInRecording(o) => err(
+            ErrorCode::Failed,
+            format!("calibration refused, nothing installed: {e}"),
+        )
+        .with_cause(Cause::ContactInRecording {
+            joint: o.joint + 1,
+            onset_s: o.onset_s,
+            peak_s: o.peak_s,
+            residual_nm: o.residual_nm,
+            envelope_nm: o.envelope_nm,
+            score: o.score,
+            limit: o.limit,
+        }),
+        e => err(ErrorCode::Failed, format!("calibration failed: {e}")),
+    }
+}
+
+/// Each joint above the ceiling in words.
+pub(super) fn above_ceiling(joints: &[ThresholdAboveCeiling]) -> Vec<String> {
+    joints
+        .iter()
+        .map(|a| {
+            format!(
+                "joint {} threshold {:.2} Nm at rest, {:.2} Nm median over the recording, above the ceiling {:.2} Nm",
+                a.joint, a.threshold_at_rest_nm, a.threshold_median_nm, a.ceiling_nm
+            )
+        })
+        .collect()
+}

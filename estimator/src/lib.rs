@@ -19,7 +19,8 @@
 //!   eqs. 11–14), regularised toward the nominal model; [`model_error`]: the correlated
 //!   model-error term of trajectory fits; [`coefficient_route`]: the paper's payload from the
 //!   difference of identified coefficients (eqs. 22–28) on logs;
-//! - [`poses`]: pose design with predicted uncertainty;
+//! - [`poses`]: pose design with predicted uncertainty; [`replay`]: a recorded log played at a
+//!   controller's period;
 //! - [`samples`]: static-sample CSV and validation; [`plausible`]: recorded values against the
 //!   robot model's limits; [`lsq`]: least squares with covariance;
 //! - [`basis`]: numerical gravity base parameters; [`filter`]: zero-phase Butterworth and
@@ -45,6 +46,7 @@ pub mod model_error;
 pub mod motion;
 pub mod plausible;
 pub mod poses;
+pub mod replay;
 pub mod samples;
 pub mod sim;
 

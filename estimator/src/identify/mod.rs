@@ -18,7 +18,7 @@
 mod normal;
 mod samples;
 
-pub use samples::{Piece, Preparation, prepare};
+pub use samples::{Piece, Preparation, piece_of, prepare};
 
 use dynamics::identified::{
     BaseTerms, FitSummary, IDENTIFIED_FORMAT, IdentifiedFile, JointTerms, ModelErrorTerms,

@@ -60,6 +60,46 @@ pub struct Preparation {
     pub dropped_rows: usize,
 }
 
+/// One contiguous part of a log as samples, and whether its derivatives were recorded; `None`
+/// when it is too short for the filter's edges (see [`prepare`]).
+pub fn piece_of<const N: usize>(
+    part: &RecordedLog<N>,
+    options: &IdentifyOptions,
+) -> Result<Option<(Piece<N>, bool)>, EstimatorError> {
+    if let (Some(d), true) = (&part.derivatives, options.recorded_derivatives) {
+        return Ok(Some((
+            Piece {
+                t: part.trajectory.t.clone(),
+                q: part.trajectory.q.clone(),
+                qd: d.qd.clone(),
+                qdd: d.qdd.clone(),
+                tau: part.trajectory.tau.clone(),
+            },
+            true,
+        )));
+    }
+    let samples = match filtered(
+        &part.trajectory,
+        options.order,
+        options.cutoff_hz,
+        options.trim_s,
+    ) {
+        Ok(s) => s,
+        Err(EstimatorError::TooFewSamples { .. }) => return Ok(None),
+        Err(e) => return Err(e),
+    };
+    Ok(Some((
+        Piece {
+            t: samples.iter().map(|s| s.t).collect(),
+            q: samples.iter().map(|s| s.q).collect(),
+            qd: samples.iter().map(|s| s.qd).collect(),
+            qdd: samples.iter().map(|s| s.qdd).collect(),
+            tau: samples.iter().map(|s| s.tau).collect(),
+        },
+        false,
+    )))
+}
+
 /// Cuts every log at its gaps and turns each piece into samples (see the module docs):
 /// recorded derivatives are used as they are; otherwise q and τ are filtered forward and
 /// backward (Butterworth, `options.order` and `options.cutoff_hz`) on the piece's own stamps,
@@ -78,43 +118,16 @@ pub fn prepare<const N: usize>(
         how.dropped_rows += dropped;
         for range in ranges {
             let rows = range.len();
-            let part = log.slice(range);
-            let piece = match (&part.derivatives, options.recorded_derivatives) {
-                (Some(d), true) => {
-                    how.recorded += 1;
-                    Piece {
-                        t: part.trajectory.t.clone(),
-                        q: part.trajectory.q.clone(),
-                        qd: d.qd.clone(),
-                        qdd: d.qdd.clone(),
-                        tau: part.trajectory.tau.clone(),
-                    }
-                }
-                _ => {
-                    let samples = match filtered(
-                        &part.trajectory,
-                        options.order,
-                        options.cutoff_hz,
-                        options.trim_s,
-                    ) {
-                        Ok(s) => s,
-                        Err(EstimatorError::TooFewSamples { .. }) => {
-                            how.dropped_rows += rows;
-                            continue;
-                        }
-                        Err(e) => return Err(e),
-                    };
-                    how.derived += 1;
-                    how.dropped_rows += rows - samples.len();
-                    Piece {
-                        t: samples.iter().map(|s| s.t).collect(),
-                        q: samples.iter().map(|s| s.q).collect(),
-                        qd: samples.iter().map(|s| s.qd).collect(),
-                        qdd: samples.iter().map(|s| s.qdd).collect(),
-                        tau: samples.iter().map(|s| s.tau).collect(),
-                    }
-                }
+            let Some((piece, recorded)) = piece_of(&log.slice(range), options)? else {
+                how.dropped_rows += rows;
+                continue;
             };
+            if recorded {
+                how.recorded += 1;
+            } else {
+                how.derived += 1;
+                how.dropped_rows += rows - piece.len();
+            }
             let span =
                 piece.t.last().copied().unwrap_or(0.0) - piece.t.first().copied().unwrap_or(0.0);
             let rate = if span > 0.0 {

@@ -19,7 +19,7 @@ pub use log::{
     Derivatives, MIN_SEGMENT_ROWS, RecordedLog, Segments, Trajectory, gap_ranges, read_log_csv,
     read_recorded_csv, split_at_gaps,
 };
-pub use process::{ProcessedSample, filtered, process};
+pub use process::{ProcessedSample, TimeBase, filtered, process, time_base};
 pub use result::{InertialEstimate, ModelErrorUsed};
 
 use dynamics::{Data, IdentifiedModel, Model, payload_gravity_regressor, payload_regressor, rnea};

@@ -115,6 +115,34 @@ fn thresholds_calibrated_on_run_1_are_never_crossed_on_run_2() {
     ]);
     assert_eq!(fit["recording"]["budget_per_hour"], 0.1);
     assert!(fit["recording"]["blocks"].as_u64().unwrap() >= 20, "{fit}");
+    // 25 s cannot bound every joint's residual for 0.1/h: the report says where the fit
+    // reached the service's ceiling (there "no crossing" means "no detection")
+    let text = fri_ctl(&[
+        "calibrate-thresholds",
+        "--log",
+        &run("flobaroid-run1.csv"),
+        "--calibration",
+        &arm,
+        "--budget",
+        "0.1",
+        "--out",
+        &thresholds,
+    ]);
+    let text = String::from_utf8_lossy(&text.stdout).into_owned();
+    let capped: Vec<usize> = (0..7)
+        .filter(|&j| {
+            let max = fit["joints"][j]["threshold_max"].as_f64().unwrap();
+            max >= fri_api::bounds::threshold(j).max * (1.0 - 1e-9)
+        })
+        .collect();
+    assert_eq!(
+        text.contains("reaches the service's ceiling"),
+        !capped.is_empty(),
+        "{capped:?}: {text}"
+    );
+    for j in &capped {
+        assert!(text.contains(&format!("J{}", j + 1)), "{text}");
+    }
     let v = ok_json(&[
         "monitor",
         "--log",
@@ -137,9 +165,19 @@ fn thresholds_calibrated_on_run_1_are_never_crossed_on_run_2() {
     );
     // 25 s at 1 ms, less the warm-up
     assert!(log["live_samples"].as_u64().unwrap() > 24_000, "{log}");
-    // the identified observer leaves a residual of the identification's size
+    // the identified observer leaves a residual of the identification's size, below the
+    // nominal model's on every joint
     let rms = log["residual_rms"].as_array().unwrap();
     assert!(rms.iter().all(|v| v.as_f64().unwrap() < 0.45), "{rms:?}");
+    let nominal = ok_json(&["monitor", "--log", &run("flobaroid-run2.csv"), "--json"]);
+    let nominal_rms = nominal["logs"][0]["residual_rms"].as_array().unwrap();
+    for (j, (a, b)) in rms.iter().zip(nominal_rms).enumerate() {
+        assert!(
+            a.as_f64().unwrap() < b.as_f64().unwrap(),
+            "J{}: identified {a} Nm, nominal {b} Nm",
+            j + 1
+        );
+    }
     for f in log["min_force_at_rest"].as_array().unwrap() {
         let n = f["median"].as_f64().unwrap();
         assert!(n.is_finite() && n > 0.0, "{f}");
@@ -172,11 +210,24 @@ fn every_payload_route_reports_no_payload_on_an_unloaded_run() {
         &arm,
         "--json",
     ]);
+    let arm2 = dir.file("arm2.toml");
+    ok_json(&[
+        "identify",
+        "--log",
+        &run("flobaroid-run2.csv"),
+        "--out",
+        &arm2,
+        "--json",
+    ]);
     let run2 = run("flobaroid-run2.csv");
-    let text = err_text(&["estimate-motion", "--log", &run2, "--calibration", &arm]);
-    assert_no_payload(&text, "motion route");
-    let text = err_text(&["coefficients", "--loaded-log", &run2, "--calibration", &arm]);
-    assert_no_payload(&text, "coefficient route");
+    let run1 = run("flobaroid-run1.csv");
+    // each run against the arm identified on the other
+    for (log, arm, what) in [(&run2, &arm, "run 2"), (&run1, &arm2, "run 1")] {
+        let text = err_text(&["estimate-motion", "--log", log, "--calibration", arm]);
+        assert_no_payload(&text, &format!("motion route, {what}"));
+        let text = err_text(&["coefficients", "--loaded-log", log, "--calibration", arm]);
+        assert_no_payload(&text, &format!("coefficient route, {what}"));
+    }
     // the same trajectory run twice is a valid tare (refused before: "tare pose mismatch: joint
     // 1 differs by 0.00211 rad")
     let text = err_text(&[
@@ -188,6 +239,8 @@ fn every_payload_route_reports_no_payload_on_an_unloaded_run() {
     ]);
     assert!(!text.contains("tare pose mismatch"), "{text}");
     assert_no_payload(&text, "tare route");
+    let text = err_text(&["estimate-motion", "--log", &run1, "--tare-log", &run2]);
+    assert_no_payload(&text, "tare route, run 1 on run 2");
 }
 
 #[test]

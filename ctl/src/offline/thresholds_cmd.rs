@@ -138,6 +138,17 @@ pub fn calibrate_thresholds(
     Ok(())
 }
 
+/// Joints ("J1"…) whose largest scheduled threshold over the recording is the service's
+/// ceiling: the extreme-value fit could not bound the residual there with this recording.
+fn at_ceiling(f: &ThresholdsFile) -> Vec<String> {
+    f.joints
+        .iter()
+        .enumerate()
+        .filter(|(j, x)| x.threshold_max >= bounds::threshold(*j).max * (1.0 - 1e-9))
+        .map(|(j, _)| format!("J{}", j + 1))
+        .collect()
+}
+
 fn thresholds_report(f: &ThresholdsFile, path: &Path) -> String {
     let mut s = String::new();
     let r = &f.recording;
@@ -210,6 +221,14 @@ fn thresholds_report(f: &ThresholdsFile, path: &Path) -> String {
     let _ = writeln!(s, "  {:<22} {:<5}{}", "", "", links.join(""));
     force_rows(&mut s, "at θ at rest", &f.min_force_at_rest);
     force_rows(&mut s, "at the median θ", &f.min_force_median);
+    let capped = at_ceiling(f);
+    if !capped.is_empty() {
+        let _ = writeln!(
+            s,
+            "  WARNING: the fit reaches the service's ceiling (a quarter of the torque limit) on {} in the recorded motion: there the budget is met only by not detecting; record longer or more of the task and calibrate again",
+            capped.join(", ")
+        );
+    }
     let _ = writeln!(
         s,
         "  written to {} (check them on another recording: fri-ctl offline monitor --log OTHER --thresholds {}{})",

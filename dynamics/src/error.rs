@@ -88,6 +88,14 @@ pub enum DynamicsError {
     /// A URDF file is malformed or describes something this crate cannot model.
     #[error("URDF: {0}")]
     Urdf(String),
+    /// An identified-arm file does not fit the model, or a field is out of range.
+    #[error("identified arm file, `{field}`: {reason}")]
+    Identified {
+        /// The field, e.g. `joint.offset[3]` (joints 1-based).
+        field: String,
+        /// What is wrong and the allowed range.
+        reason: String,
+    },
     /// A file could not be read.
     #[error("cannot read {path}: {message}")]
     Io {

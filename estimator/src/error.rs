@@ -108,6 +108,18 @@ pub enum EstimatorError {
         /// Its standard deviation in kg.
         std: f64,
     },
+    /// The estimate is no payload a flange can carry (a significant violation, see
+    /// [`crate::consistency`]); the numbers are kept for the diagnosis, not for use.
+    #[error("the estimate is not a payload: {cause}")]
+    NonPhysical {
+        /// Why not.
+        cause: crate::consistency::NonPhysical,
+        /// What was estimated (mass, CoM, inertia with their σ).
+        estimate: Box<crate::motion::InertialEstimate>,
+    },
+    /// An identified arm model is inconsistent with the data or the robot model.
+    #[error("identified arm model: {0}")]
+    Identified(#[from] dynamics::DynamicsError),
     /// A calibration file does not fit the robot model it is applied to.
     #[error(
         "calibration does not fit this robot: {0}; re-run `fri-ctl offline calibrate` for this robot model"

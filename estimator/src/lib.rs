@@ -12,8 +12,15 @@
 //! - [`error_model`]: the estimate under an explicit error model (averaging noise, tare, drift,
 //!   offset) with its uncertainty by source;
 //! - [`coefficients`] and [`expr`]: the coefficient-set workflow (eqs. 21–28) and its file format;
-//! - [`motion`]: full inertial estimation from trajectories (eq. 45);
-//! - [`poses`]: pose design with predicted uncertainty;
+//! - [`motion`]: full inertial estimation from trajectories (eq. 45), with [`align`] (a tare run
+//!   of the same trajectory aligned in time) and [`consistency`] (a result that is no payload is
+//!   an error with its cause);
+//! - [`identify`]: the arm identified from its own unloaded recordings (paper Sec. II,
+//!   eqs. 11–14), regularised toward the nominal model; [`model_error`]: the correlated
+//!   model-error term of trajectory fits; [`coefficient_route`]: the paper's payload from the
+//!   difference of identified coefficients (eqs. 22–28) on logs;
+//! - [`poses`]: pose design with predicted uncertainty; [`replay`]: a recorded log played at a
+//!   controller's period;
 //! - [`samples`]: static-sample CSV and validation; [`plausible`]: recorded values against the
 //!   robot model's limits; [`lsq`]: least squares with covariance;
 //! - [`verdict`]: whether an estimate means anything (significant mass, centre of mass within
@@ -23,8 +30,11 @@
 //!
 //! Methods, frames, file formats and how to read the uncertainties: `docs/estimation.md`.
 
+pub mod align;
 pub mod basis;
+pub mod coefficient_route;
 pub mod coefficients;
+pub mod consistency;
 pub mod correction;
 mod equations;
 pub mod error;
@@ -32,10 +42,13 @@ pub mod error_model;
 pub mod estimate;
 pub mod expr;
 pub mod filter;
+pub mod identify;
 pub mod lsq;
+pub mod model_error;
 pub mod motion;
 pub mod plausible;
 pub mod poses;
+pub mod replay;
 pub mod samples;
 pub mod sim;
 pub mod verdict;

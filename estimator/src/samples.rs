@@ -149,7 +149,7 @@ pub fn validate<const N: usize>(
 }
 
 /// Column indices of `prefix1..prefixN` in a header, or a [`EstimatorError::WrongColumns`].
-fn find_group<const N: usize>(
+pub(crate) fn find_group<const N: usize>(
     header: &[String],
     prefix: &str,
     required: bool,

@@ -19,6 +19,12 @@ pub enum OfflineCommand {
     Calibrate(CalibrateArgs),
     /// Estimate all ten inertial parameters from a loaded trajectory log (paper Sec. V, eq. 45).
     EstimateMotion(MotionArgs),
+    /// Identify the arm (offsets, friction, base coefficients) from its own unloaded logs.
+    Identify(IdentifyArgs),
+    /// Run the service's collision monitor over recorded logs: residual, crossings, F_min.
+    Monitor(MonitorArgs),
+    /// Fit collision thresholds for a false-alarm budget on contact-free logs.
+    CalibrateThresholds(CalibrateThresholdsArgs),
 }
 
 /// Static estimator formulation.
@@ -73,18 +79,35 @@ fn drift_rate(text: &str) -> Result<f64, String> {
     }
 }
 
-/// `fri-ctl offline coefficients`.
+/// `fri-ctl offline coefficients`: either identified coefficient vectors (`--set`,
+/// `--unloaded`, `--loaded`) or logs (`--loaded-log` with `--unloaded-log` or `--calibration`).
 #[derive(Debug, Clone, Args)]
 pub struct CoefficientsArgs {
     /// Coefficient set: planar-2r (eq. 29), lwr4-gravity (eq. 38) or a definition file.
-    #[arg(long)]
-    pub set: String,
+    #[arg(long, requires_all = ["unloaded", "loaded"], conflicts_with = "loaded_log")]
+    pub set: Option<String>,
     /// Identified coefficients without payload: JSON array in the set's order.
-    #[arg(long)]
-    pub unloaded: PathBuf,
+    #[arg(long, requires = "set")]
+    pub unloaded: Option<PathBuf>,
     /// Identified coefficients with payload: JSON array in the set's order.
+    #[arg(long, requires = "set")]
+    pub loaded: Option<PathBuf>,
+    /// Loaded trajectory logs (as for `estimate-motion`): the coefficients the payload changes
+    /// are identified on them on top of the unloaded arm's (eqs. 22–28).
+    #[arg(long, required_unless_present = "set")]
+    pub loaded_log: Vec<PathBuf>,
+    /// Unloaded logs to identify the arm from first (as `identify` does).
+    #[arg(long, conflicts_with = "calibration")]
+    pub unloaded_log: Vec<PathBuf>,
+    /// The unloaded arm, identified before (`offline identify --out`).
     #[arg(long)]
-    pub loaded: PathBuf,
+    pub calibration: Option<PathBuf>,
+    /// Robot model (with logs): lwr4, planar-2r, or a robot TOML file.
+    #[arg(long, default_value = "lwr4")]
+    pub robot: RobotChoice,
+    /// Fit the loaded session's torque offsets alongside (they drift between sessions).
+    #[arg(long)]
+    pub fit_offsets: bool,
     /// Print one JSON object instead of the report.
     #[arg(long)]
     pub json: bool,
@@ -175,6 +198,112 @@ pub struct MotionArgs {
     /// Seconds dropped at both ends of each log (filter edges); default 3/cutoff.
     #[arg(long)]
     pub trim_s: Option<f64>,
+    /// The arm identified from its unloaded logs (`offline identify --out`): its prediction is
+    /// the unloaded torque and its held-out residual the model-error term.
+    #[arg(long, conflicts_with = "tare_log")]
+    pub calibration: Option<PathBuf>,
+    /// Largest joint-position difference between a loaded log and its tare after aligning
+    /// them in time, rad.
+    #[arg(long, default_value_t = estimator::align::DEFAULT_PATH_TOLERANCE)]
+    pub tare_tolerance: f64,
+    /// Largest distance of the payload's CoM from the flange, m: farther (by 2σ) is no payload.
+    #[arg(long, default_value_t = estimator::consistency::DEFAULT_MAX_COM_DISTANCE_M)]
+    pub max_com_distance: f64,
+    /// Fit a torque offset per joint alongside (the unloaded torques come from another
+    /// session); needs motions that vary every joint's gravity torque.
+    #[arg(long)]
+    pub fit_offsets: bool,
+    /// Print one JSON object instead of the report.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `fri-ctl offline identify`.
+#[derive(Debug, Clone, Args)]
+pub struct IdentifyArgs {
+    /// Unloaded log: CSV with t (or time_s), q1..qn, tau1..taun and optionally qd1..qdn with
+    /// qdd1..qddn (the service's `record --kind log` as it is), or MCAP (/joint_states).
+    /// Repeat for several logs.
+    #[arg(long, required = true)]
+    pub log: Vec<PathBuf>,
+    /// Output identified-arm file (TOML).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Robot model: lwr4, planar-2r, or a robot TOML file.
+    #[arg(long, default_value = "lwr4")]
+    pub robot: RobotChoice,
+    /// v0 of the smooth Coulomb sign tanh(q̇/v0), rad/s.
+    #[arg(long, default_value_t = estimator::identify::DEFAULT_COULOMB_VELOCITY)]
+    pub coulomb_velocity: f64,
+    /// Cross-validation folds (contiguous time blocks) that choose the ridge weight, 2 to 20.
+    #[arg(long, default_value_t = estimator::identify::DEFAULT_FOLDS)]
+    pub folds: usize,
+    /// Derive q̇ and q̈ from q even when the log has them.
+    #[arg(long)]
+    pub derive: bool,
+    /// Cutoff of the zero-phase filter that derives q̇ and q̈, Hz.
+    #[arg(long, default_value_t = estimator::identify::DEFAULT_DERIVATIVE_CUTOFF_HZ)]
+    pub cutoff_hz: f64,
+    /// Order of that Butterworth filter.
+    #[arg(long, default_value_t = 4)]
+    pub order: usize,
+    /// Seconds dropped at both ends of each derived piece; default 3/cutoff.
+    #[arg(long)]
+    pub trim_s: Option<f64>,
+    /// Print one JSON object instead of the report.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `fri-ctl offline monitor`.
+#[derive(Debug, Clone, Args)]
+pub struct MonitorArgs {
+    /// Log to replay (CSV or MCAP, as for `identify`); repeat for several. LWR 4+ only.
+    #[arg(long, required = true)]
+    pub log: Vec<PathBuf>,
+    /// The identified arm (`offline identify --out`) for the observer's model.
+    #[arg(long)]
+    pub calibration: Option<PathBuf>,
+    /// Thresholds: a thresholds file (`offline calibrate-thresholds --out`), or Nm as one value
+    /// for every joint or 7 comma-separated values; default 6 Nm.
+    #[arg(long, allow_hyphen_values = true)]
+    pub thresholds: Option<String>,
+    /// Observer gains, 1/s: one value or 7 (default 400; a thresholds file brings its own).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub gains: Option<Vec<f64>>,
+    /// Controller period the log is played at, s (the FRI cycle).
+    #[arg(long, default_value_t = 0.001)]
+    pub period_s: f64,
+    /// Print one JSON object instead of the report.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `fri-ctl offline calibrate-thresholds`.
+#[derive(Debug, Clone, Args)]
+pub struct CalibrateThresholdsArgs {
+    /// Contact-free log of the task (CSV or MCAP); repeat for several. LWR 4+ only.
+    #[arg(long, required = true)]
+    pub log: Vec<PathBuf>,
+    /// False alarms per hour the thresholds may cause, whole arm (0.0001 to 10).
+    #[arg(long, default_value_t = 0.1)]
+    pub budget: f64,
+    /// Output thresholds file (JSON).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// The identified arm (`offline identify --out`) for the observer's model.
+    #[arg(long)]
+    pub calibration: Option<PathBuf>,
+    /// Thresholds in force while recording, Nm (one or 7; default 6): a crossing means a
+    /// contact in the recording, which is refused.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub thresholds: Option<Vec<f64>>,
+    /// Observer gains, 1/s: one value or 7 (default 400).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub gains: Option<Vec<f64>>,
+    /// Controller period the log is played at, s (the FRI cycle).
+    #[arg(long, default_value_t = 0.001)]
+    pub period_s: f64,
     /// Print one JSON object instead of the report.
     #[arg(long)]
     pub json: bool,

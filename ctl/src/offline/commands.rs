@@ -148,21 +148,23 @@ fn read_vector(path: &Path) -> anyhow::Result<Vec<f64>> {
 
 /// `offline coefficients`.
 pub fn coefficients(a: &CoefficientsArgs, out: &mut dyn Write) -> anyhow::Result<()> {
-    let set = match CoefficientSet::builtin(&a.set) {
+    let (Some(set_name), Some(unloaded), Some(loaded)) = (&a.set, &a.unloaded, &a.loaded) else {
+        return super::coefficients_log::coefficients_from_logs(a, out);
+    };
+    let set = match CoefficientSet::builtin(set_name) {
         Some(s) => s,
         None => {
-            let text = std::fs::read_to_string(&a.set).with_context(|| {
+            let text = std::fs::read_to_string(set_name).with_context(|| {
                 format!(
-                    "`{}` is neither a built-in set (planar-2r, lwr4-gravity) nor a readable file",
-                    a.set
+                    "`{set_name}` is neither a built-in set (planar-2r, lwr4-gravity) nor a readable file"
                 )
             })?;
             CoefficientSet::parse(&text)
-                .with_context(|| format!("coefficient set file {}", a.set))?
+                .with_context(|| format!("coefficient set file {set_name}"))?
         }
     };
-    let unloaded = read_vector(&a.unloaded)?;
-    let loaded = read_vector(&a.loaded)?;
+    let unloaded = read_vector(unloaded)?;
+    let loaded = read_vector(loaded)?;
     let est = set.estimate(&unloaded, &loaded)?;
     if a.json {
         let obj = json!({
@@ -179,8 +181,7 @@ pub fn coefficients(a: &CoefficientsArgs, out: &mut dyn Write) -> anyhow::Result
     }
     writeln!(
         out,
-        "Coefficient workflow (eps = pi_L - pi, p_L = J_eps,nz^# eps_nz), set `{}`",
-        a.set
+        "Coefficient workflow (eps = pi_L - pi, p_L = J_eps,nz^# eps_nz), set `{set_name}`"
     )?;
     let rows: Vec<String> = est
         .nonzero_rows

@@ -1,39 +1,18 @@
 //! `offline estimate-motion`: full inertial estimate from trajectory logs (paper Sec. V, eq. 45).
 
-use std::fs::File;
-use std::io::{BufReader, Write};
+use std::io::Write;
 
 use anyhow::{Context, bail};
 use dynamics::Model;
 use estimator::motion::{
     InertialEstimate, MIN_SEGMENT_ROWS, MotionOptions, Trajectory, Unloaded,
-    estimate_motion as run_motion, read_log_csv, split_at_gaps,
+    estimate_motion as run_motion, split_at_gaps,
 };
-use estimator::plausible::Ranges;
 
 use super::args::MotionArgs;
 use super::commands::read_samples;
+use super::logs::{read_identified, read_trajectory};
 use super::robot::with_robot;
-
-/// Reads a trajectory log (CSV, or MCAP: `/joint_states`); every position and torque must be
-/// plausible for `model`.
-fn read_log<const N: usize>(
-    path: &std::path::Path,
-    model: &Model<N>,
-) -> anyhow::Result<Trajectory<N>> {
-    let context = || format!("reading {}", path.display());
-    let trajectory = if super::mcap_log::is_mcap(path)? {
-        super::mcap_log::read::<N>(path).with_context(context)?
-    } else {
-        let f = File::open(path)
-            .with_context(|| format!("cannot open trajectory log {}", path.display()))?;
-        read_log_csv::<N, _>(BufReader::new(f)).with_context(context)?
-    };
-    Ranges::from_limits(model.limits())
-        .check_trajectory(&trajectory)
-        .with_context(context)?;
-    Ok(trajectory)
-}
 
 fn report(e: &InertialEstimate, last_frame: usize) -> String {
     let s = &e.parameters_std;
@@ -76,10 +55,34 @@ fn report(e: &InertialEstimate, last_frame: usize) -> String {
         None => {
             out += "  physically consistent (m > 0, inertia positive definite, triangle inequalities hold)\n"
         }
-        Some(w) => out += &format!("  WARNING: {w}\n"),
+        Some(w) => out += &format!("  note: {w}\n"),
     }
-    out += "  (1σ from the residual variance of filtered, correlated samples: treat as optimistic by up to ~3x)\n";
+    out += &model_error(e);
     out
+}
+
+/// The model-error term's lines of a report.
+pub(crate) fn model_error(e: &InertialEstimate) -> String {
+    let me = &e.model_error;
+    let cells = |v: &[f64], digits: usize| -> String {
+        v.iter()
+            .map(|x| {
+                if x.is_nan() {
+                    "     n/a".to_owned()
+                } else {
+                    format!("{x:>8.digits$}")
+                }
+            })
+            .collect::<Vec<_>>()
+            .join("")
+    };
+    format!(
+        "  1σ includes the model-error term ({}): per joint σ [Nm] {}\n                                    correlation time [s] {}\n  (rows counted as independent would give the mass ± {:.4} kg)\n",
+        me.source,
+        cells(&me.rms, 3),
+        cells(&me.correlation_time_s, 2),
+        e.parameters_std_white[0]
+    )
 }
 
 fn motion_n<const N: usize>(
@@ -97,10 +100,10 @@ fn motion_n<const N: usize>(
     let mut loaded: Vec<Trajectory<N>> = Vec::new();
     let mut notes = Vec::new();
     for p in &a.log {
-        let log = read_log::<N>(p, &model)?;
+        let log = read_trajectory::<N>(p, &model)?;
         let s = split_at_gaps(&log).with_context(|| format!("reading {}", p.display()))?;
         if s.gaps > 0 {
-            // A tare log pairs row by row with its loaded log: gaps would break the pairing.
+            // A tare log is aligned to one contiguous loaded log: its pieces would need one each.
             if !a.tare_log.is_empty() {
                 bail!(
                     "{}: {} gaps in the time column (lost cycles); with --tare-log every log must be contiguous",
@@ -121,25 +124,39 @@ fn motion_n<const N: usize>(
     let tare: Vec<Trajectory<N>> = a
         .tare_log
         .iter()
-        .map(|p| read_log::<N>(p, &model))
+        .map(|p| read_trajectory::<N>(p, &model))
         .collect::<anyhow::Result<_>>()?;
     let statics = match &a.static_samples {
         Some(p) => read_samples::<N>(p, &model)?,
         None => Vec::new(),
     };
-    let unloaded = if tare.is_empty() {
-        Unloaded::Model(&model)
-    } else {
-        Unloaded::Tare(&tare)
+    let identified = a
+        .calibration
+        .as_ref()
+        .map(|p| read_identified(p, &model))
+        .transpose()?;
+    let unloaded = match (&identified, tare.is_empty()) {
+        (Some(m), _) => Unloaded::Identified(m),
+        (None, true) => Unloaded::Model(&model),
+        (None, false) => Unloaded::Tare(&tare),
     };
     let opts = MotionOptions {
         order: a.order,
         cutoff_hz: a.cutoff_hz,
         keep: a.keep,
         trim_s: a.trim_s,
+        tare_tolerance: a.tare_tolerance,
+        max_com_distance_m: a.max_com_distance,
+        fit_offsets: a.fit_offsets,
         ..MotionOptions::default()
     };
     let e = run_motion(&model, &loaded, unloaded, &statics, &opts).context("motion estimate")?;
+    if let Some(path) = &a.calibration {
+        notes.push(format!(
+            "  unloaded torques: the arm identified in {} (its held-out residual is the model-error floor)",
+            path.display()
+        ));
+    }
     if a.json {
         writeln!(out, "{}", serde_json::to_string_pretty(&e)?)?;
     } else {

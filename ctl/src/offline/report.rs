@@ -4,6 +4,7 @@ use std::fmt::Write as _;
 
 use estimator::estimate::{Correction, Method, PayloadEstimate};
 use estimator::poses::Prediction;
+use fri_api::results::LinkForce;
 
 /// Millimetres with sign; "n/a" for a component the data cannot determine (NaN).
 fn mm(v: f64) -> String {
@@ -162,4 +163,21 @@ pub fn uncertainty(u: &estimator::error_model::Uncertainty) -> String {
         u.dof
     );
     s
+}
+
+/// One row of a per-joint (or per-link) table: label, unit, values.
+pub(crate) fn table_row(
+    s: &mut String,
+    label: &str,
+    unit: &str,
+    v: impl Iterator<Item = f64>,
+    digits: usize,
+) {
+    let cells: Vec<String> = v.map(|x| format!("{x:>8.digits$}")).collect();
+    let _ = writeln!(s, "  {label:<22} {unit:<5}{}", cells.join(""));
+}
+
+/// One row of minimum detectable forces per link, N (medians).
+pub(crate) fn force_rows(s: &mut String, label: &str, f: &[LinkForce; 7]) {
+    table_row(s, label, "N", f.iter().map(|l| l.median), 1);
 }

@@ -1,0 +1,162 @@
+//! `offline identify`: the arm identified from its own unloaded logs (paper Sec. II; the
+//! method in docs/estimation.md, "Identifying the arm"), written as an identified-arm file.
+
+use std::fmt::Write as _;
+use std::io::Write;
+
+use anyhow::Context;
+use dynamics::Model;
+use estimator::identify::{Identification, IdentifyOptions, identify};
+use serde_json::json;
+
+use super::args::IdentifyArgs;
+use super::logs::read_recorded;
+use super::robot::with_robot;
+
+fn row(label: &str, unit: &str, v: &[f64], digits: usize) -> String {
+    let cells: Vec<String> = v.iter().map(|x| format!("{x:>8.digits$}")).collect();
+    format!("  {label:<28} {unit:<8}{}\n", cells.join(""))
+}
+
+fn report<const N: usize>(id: &Identification<N>, out_path: &str) -> String {
+    let f = id.model.file();
+    let fit = &f.fit;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "Arm identified from {} log(s), written to {out_path}",
+        fit.logs.len()
+    );
+    let p = &id.preparation;
+    let _ = writeln!(
+        s,
+        "  {} samples over {:.1} s ({} piece(s) with the log's q̇, q̈; {} derived zero-phase; {} gap(s), {} rows left out)",
+        fit.samples, fit.duration_s, p.recorded, p.derived, p.gaps, p.dropped_rows
+    );
+    let _ = writeln!(
+        s,
+        "  τ = Y(q,q̇,q̈)(π_nom + δπ) + offset + viscous·q̇ + coulomb·tanh(q̇/{} rad/s): {} base coefficients + {} joint terms",
+        f.joint.coulomb_velocity,
+        f.base.delta.len(),
+        3 * N
+    );
+    let weight = if fit.ridge_weight.is_finite() {
+        format!("{:.3e}", fit.ridge_weight)
+    } else {
+        "∞ (no base correction)".to_owned()
+    };
+    let _ = writeln!(
+        s,
+        "  ridge weight λ = {weight} (chosen on {} held-out contiguous blocks); condition number {:.1} (column-normalised, unpenalised)",
+        fit.folds, fit.condition_number
+    );
+    let header: Vec<String> = (1..=N).map(|j| format!("{:>8}", format!("J{j}"))).collect();
+    let _ = writeln!(s, "  {:<28} {:<8}{}", "residual RMS", "", header.join(""));
+    s += &row(
+        "nominal model, in sample",
+        "Nm",
+        &fit.residual_rms_nominal,
+        3,
+    );
+    s += &row("identified, in sample", "Nm", &fit.residual_rms, 3);
+    s += &row("identified, held out", "Nm", &fit.heldout_rms, 3);
+    s += &row(
+        "offsets+friction, held out",
+        "Nm",
+        &fit.heldout_rms_joint_terms,
+        3,
+    );
+    s += &row("free fit (λ = 0), held out", "Nm", &fit.heldout_rms_free, 3);
+    let _ = writeln!(s, "  joint terms (± 1σ)");
+    s += &row("offset", "Nm", &f.joint.offset, 3);
+    s += &row("  ± 1σ", "Nm", &f.joint.offset_std, 3);
+    s += &row("viscous", "Nm·s/rad", &f.joint.viscous, 3);
+    s += &row("  ± 1σ", "Nm·s/rad", &f.joint.viscous_std, 3);
+    s += &row("Coulomb", "Nm", &f.joint.coulomb, 3);
+    s += &row("  ± 1σ", "Nm", &f.joint.coulomb_std, 3);
+    let _ = writeln!(
+        s,
+        "  model error (the held-out residual; payload estimates carry it)"
+    );
+    s += &row("RMS", "Nm", &f.model_error.residual_rms, 3);
+    s += &row(
+        "correlation time",
+        "s",
+        &f.model_error.correlation_time_s,
+        3,
+    );
+    let largest = f
+        .base
+        .delta
+        .iter()
+        .zip(&f.base.delta_std)
+        .zip(&f.base.nominal)
+        .enumerate()
+        .max_by(|a, b| {
+            let r = |x: &(usize, ((&f64, &f64), &f64))| x.1.0.0.abs() / x.1.0.1.max(1e-300);
+            r(a).total_cmp(&r(b))
+        });
+    if let Some((k, ((d, sd), nom))) = largest {
+        let _ = writeln!(
+            s,
+            "  base corrections δπ ± 1σ in the file; the most significant: coefficient {} (link parameter {}), {:+.4} ± {:.4} on a nominal {:+.4}",
+            k + 1,
+            f.base.columns[k],
+            d,
+            sd,
+            nom
+        );
+    }
+    let _ = writeln!(
+        s,
+        "  use it with: fri-ctl offline estimate-motion --calibration {out_path} …, fri-ctl offline monitor --calibration {out_path} …"
+    );
+    s
+}
+
+fn identify_n<const N: usize>(
+    model: Model<N>,
+    a: &IdentifyArgs,
+    out: &mut dyn Write,
+) -> anyhow::Result<()> {
+    let logs = a
+        .log
+        .iter()
+        .map(|p| read_recorded::<N>(p, &model))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let names: Vec<String> = a.log.iter().map(|p| p.display().to_string()).collect();
+    let options = IdentifyOptions {
+        coulomb_velocity: a.coulomb_velocity,
+        folds: a.folds,
+        recorded_derivatives: !a.derive,
+        order: a.order,
+        cutoff_hz: a.cutoff_hz,
+        trim_s: a.trim_s,
+        ..IdentifyOptions::default()
+    };
+    let id = identify(&model, &logs, &names, &options).context("identification")?;
+    let text = id.model.to_toml_string()?;
+    let header = format!(
+        "# Arm identified by `fri-ctl offline identify` from {}\n# (format: docs/robot-model.md, \"Identified arm models\")\n",
+        names.join(", ")
+    );
+    std::fs::write(&a.out, header + &text)
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    if a.json {
+        let obj = json!({
+            "file": a.out.display().to_string(),
+            "identified": id.model.file(),
+            "cross_validation": id.cv,
+            "joint_weights": id.weights,
+        });
+        writeln!(out, "{}", serde_json::to_string_pretty(&obj)?)?;
+    } else {
+        write!(out, "{}", report(&id, &a.out.display().to_string()))?;
+    }
+    Ok(())
+}
+
+/// `offline identify`.
+pub fn identify_arm(a: &IdentifyArgs, out: &mut dyn Write) -> anyhow::Result<()> {
+    with_robot!(&a.robot, |model| identify_n(model, a, out))
+}

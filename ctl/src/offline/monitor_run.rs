@@ -1,0 +1,258 @@
+//! The service's own collision monitor over a recorded log: `safety::CollisionMonitor` built as
+//! the service builds it (`fri_service::service::build_scheduled_monitor`: the configured gains,
+//! model gravity, the LWR's link surfaces, the calibrated schedule with the service's ceiling),
+//! fed at the FRI period with the log played by `estimator::replay` (positions by a natural
+//! cubic spline through the log's q, torques linear between its samples): the observer, its
+//! velocity filter, warm-up and every threshold are those of the 1 ms loop, which a 200 Hz
+//! recording's own step would not exercise (docs/collision-detection.md, "Real recordings").
+//! With an identified arm, the observer runs on its corrected model and sees the measured
+//! torque minus the arm's offset and friction at the played velocity.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, bail};
+use dynamics::{IdentifiedModel, Model};
+use estimator::replay::{PlayedSample, play};
+use fri_api::bounds;
+use fri_api::results::LinkForce;
+use nalgebra::SVector;
+use safety::calibration::{EnvelopeRecorder, minimum_detectable_force};
+use safety::{
+    CollisionMonitor, Detection, FeatureTracker, GravitySource, MonitorConfig, MotionFeatures,
+    ObserverInput, PayloadCompensation, ReactionPolicy,
+};
+
+use super::logs::{read_identified, read_recorded};
+
+type V7 = SVector<f64, 7>;
+
+/// Configurations sampled per link for the minimum detectable force (as the service).
+const FORCE_SAMPLES: usize = 1000;
+
+/// Minimum detectable force per link at thresholds `theta` (the service's computation).
+pub(crate) fn forces(model: &Model<7>, theta: &V7) -> [LinkForce; 7] {
+    let f = minimum_detectable_force(
+        model,
+        &safety::lwr4_link_surfaces(),
+        theta,
+        FORCE_SAMPLES,
+        0.8,
+        2017,
+    );
+    std::array::from_fn(|l| LinkForce {
+        median: f[l].median_n,
+        p10: f[l].p10_n,
+        p90: f[l].p90_n,
+    })
+}
+
+/// One value for every joint or seven, each within `range(joint)`.
+pub(crate) fn per_joint(
+    name: &str,
+    v: &[f64],
+    range: impl Fn(usize) -> bounds::Range,
+) -> anyhow::Result<V7> {
+    let out = match v.len() {
+        1 => V7::repeat(v[0]),
+        7 => V7::from_column_slice(v),
+        n => bail!("--{name}: {n} values; give one for every joint or 7"),
+    };
+    for j in 0..7 {
+        range(j).check(&format!("{name}[{}]", j + 1), out[j])?;
+    }
+    Ok(out)
+}
+
+/// The logs played at the period, each with its name.
+pub(crate) fn played(
+    paths: &[PathBuf],
+    model: &Model<7>,
+    period_s: f64,
+) -> anyhow::Result<Vec<(String, Vec<Vec<PlayedSample<7>>>)>> {
+    paths
+        .iter()
+        .map(|p| {
+            let log = read_recorded::<7>(p, model)?;
+            let pieces =
+                play(&log, period_s).with_context(|| format!("playing {}", p.display()))?;
+            if pieces.is_empty() {
+                bail!("{}: no piece long enough to play", p.display());
+            }
+            Ok((p.display().to_string(), pieces))
+        })
+        .collect()
+}
+
+/// The identified arm of `--calibration`, checked against `model`.
+pub(crate) fn identified(
+    path: &Option<PathBuf>,
+    model: &Model<7>,
+) -> anyhow::Result<Option<IdentifiedModel<7>>> {
+    path.as_ref().map(|p| read_identified(p, model)).transpose()
+}
+
+/// The model the observer runs on: the identified arm's corrected model, or the nominal one.
+pub(crate) fn observer_model(nominal: &Model<7>, arm: Option<&IdentifiedModel<7>>) -> Model<7> {
+    arm.map_or_else(|| nominal.clone(), |m| m.corrected_model().clone())
+}
+
+/// Samples skipped after a (re)start before the calibration records: the feature tracker's
+/// acceleration filters settle (the service's `TRACKER_SETTLE_SAMPLES`).
+pub(crate) const TRACKER_SETTLE_SAMPLES: u32 = 100;
+
+/// The monitor's settings.
+#[derive(Debug, Clone)]
+pub(crate) struct Setup {
+    /// Controller period, s.
+    pub period_s: f64,
+    /// Observer gains, 1/s.
+    pub gains: V7,
+    /// Static thresholds θ0, Nm.
+    pub thresholds: V7,
+    /// The calibrated schedule, if any.
+    pub schedule: Option<fri_api::results::ThresholdSchedule>,
+}
+
+/// The monitor the service would run with `setup` on `model` (see the module docs).
+pub(crate) fn build(model: &Model<7>, setup: &Setup) -> anyhow::Result<CollisionMonitor<7>> {
+    let mut mc = MonitorConfig::<7>::new(setup.period_s, safety::DEFAULT_GAIN);
+    mc.observer.gains = setup.gains;
+    mc.observer.gravity_source = GravitySource::Model;
+    mc.detector.thresholds_nm = setup.thresholds;
+    mc.link_surfaces = Some(safety::lwr4_link_surfaces());
+    if let Some(s) = &setup.schedule {
+        mc.detector.thresholds_nm = V7::from(s.thresholds);
+        mc.detector.velocity_coefficients = V7::from(s.speed);
+        mc.detector.schedule = safety::ThresholdSchedule {
+            velocity_noise: V7::from(s.velocity_noise),
+            payload_dynamics: V7::from(s.payload_dynamics),
+            inertial: V7::from(s.inertial),
+            gravity: V7::from(s.gravity),
+            ceiling_nm: V7::from_fn(|j, _| bounds::threshold(j).max),
+        };
+        mc.threshold_to_noise = V7::from(s.scale);
+    }
+    mc.reaction = ReactionPolicy::Stop;
+    CollisionMonitor::new(model.clone(), mc)
+        .map_err(|e| anyhow::anyhow!("collision monitor settings: {e}"))
+}
+
+/// A threshold crossing: the detector's onset.
+#[derive(Debug, Clone, serde::Serialize)]
+pub(crate) struct Crossing {
+    /// Log time of the onset, s.
+    pub time_s: f64,
+    /// Joints over their threshold (1-based), with |r| and θ, Nm.
+    pub joints: Vec<(usize, f64, f64)>,
+}
+
+/// What a run saw.
+#[derive(Debug, Default)]
+pub(crate) struct Run {
+    /// |r_j| of every live sample, per joint, Nm.
+    pub residual: [Vec<f32>; 7],
+    /// θ_j of every live sample, per joint, Nm.
+    pub thresholds: [Vec<f32>; 7],
+    /// Live samples over θ, per joint.
+    pub over: [usize; 7],
+    /// The detector's onsets.
+    pub crossings: Vec<Crossing>,
+    /// Samples the observer rejected, with the last fault.
+    pub rejected: usize,
+    /// The last fault, if any.
+    pub fault: Option<String>,
+    /// Samples played.
+    pub samples: usize,
+}
+
+/// Plays `pieces` through `monitor` (restarted at each piece, as the service does after a gap);
+/// with `record`, also the service's calibration recording (its feature tracker, fed with the
+/// observer's velocity, settled for [`TRACKER_SETTLE_SAMPLES`] after each start).
+pub(crate) fn run(
+    monitor: &mut CollisionMonitor<7>,
+    pieces: &[Vec<PlayedSample<7>>],
+    identified: Option<&IdentifiedModel<7>>,
+    period_s: f64,
+    mut record: Option<&mut EnvelopeRecorder<7>>,
+) -> Run {
+    let mut out = Run::default();
+    let mut tracker = FeatureTracker::new(monitor.observer().model(), &PayloadCompensation::None);
+    for piece in pieces {
+        monitor.restart();
+        tracker.reset();
+        let mut settle = TRACKER_SETTLE_SAMPLES;
+        for s in piece {
+            out.samples += 1;
+            let tau = match identified {
+                Some(m) => s.tau - m.joint_torque(&s.qd),
+                None => s.tau,
+            };
+            let o = monitor.step(&ObserverInput::new(s.q, tau, period_s));
+            if let Some(f) = o.observer.status.fault() {
+                if !o.observer.status.residual_updated() {
+                    out.rejected += 1;
+                }
+                out.fault = Some(format!("{f:?}"));
+            }
+            if !(o.live && o.observer.status.residual_updated()) {
+                continue;
+            }
+            let r = o.observer.residual;
+            let features = monitor
+                .features()
+                .copied()
+                .unwrap_or_else(|| MotionFeatures::from_speed(&o.observer.velocity));
+            let theta = monitor.detector().config().thresholds_for(&features);
+            for j in 0..7 {
+                out.residual[j].push(r[j].abs() as f32);
+                out.thresholds[j].push(theta[j] as f32);
+                if r[j].abs() > theta[j] {
+                    out.over[j] += 1;
+                }
+            }
+            if let Some(Detection::Onset(e)) = o.detection {
+                out.crossings.push(Crossing {
+                    time_s: s.t,
+                    joints: (0..7)
+                        .filter(|&j| e.joints_over.contains(j))
+                        .map(|j| (j + 1, e.residual[j], e.thresholds[j]))
+                        .collect(),
+                });
+                // report only, as `reaction = "report"`: the next contact is reported again
+                monitor.pass_reaction();
+            }
+            if let Some(recorder) = record.as_deref_mut() {
+                let f = *tracker.step(&s.q, &o.observer.velocity, period_s);
+                if settle > 0 {
+                    settle -= 1;
+                } else {
+                    recorder.push(&r, &f);
+                }
+            }
+        }
+    }
+    out
+}
+
+/// RMS, 99th percentile and peak of `v`.
+pub(crate) fn summary(v: &[f32]) -> (f64, f64, f64) {
+    if v.is_empty() {
+        return (f64::NAN, f64::NAN, f64::NAN);
+    }
+    let rms = (v.iter().map(|x| f64::from(*x).powi(2)).sum::<f64>() / v.len() as f64).sqrt();
+    let mut sorted: Vec<f32> = v.to_vec();
+    sorted.sort_by(f32::total_cmp);
+    let p99 = f64::from(sorted[((sorted.len() - 1) as f64 * 0.99).round() as usize]);
+    let peak = f64::from(sorted[sorted.len() - 1]);
+    (rms, p99, peak)
+}
+
+/// Median of `v`.
+pub(crate) fn median(v: &[f32]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mut sorted: Vec<f32> = v.to_vec();
+    sorted.sort_by(f32::total_cmp);
+    f64::from(sorted[sorted.len() / 2])
+}

@@ -1,0 +1,109 @@
+//! The thresholds file of `offline calibrate-thresholds` (JSON): the calibrated schedule in the
+//! form the service stores it (`monitor.json`'s `schedule` and `calibration`, the same
+//! `fri_api::results` types as `collision calibrate`), with the gains and the period it was
+//! fitted at, the identified arm it assumes and what it detects. `offline monitor --thresholds
+//! FILE` reads it back, checked against the service's bounds.
+
+use std::path::Path;
+
+use anyhow::{Context, bail};
+use fri_api::bounds;
+use fri_api::results::{CalibrationInfo, JointFit, LinkForce, ThresholdSchedule};
+use serde::{Deserialize, Serialize};
+
+/// Version of the thresholds file format.
+pub const THRESHOLDS_FORMAT: u32 = 1;
+/// What wrote the file.
+pub const THRESHOLDS_KIND: &str = "fri-ctl offline calibrate-thresholds";
+
+/// The thresholds file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThresholdsFile {
+    /// Format version ([`THRESHOLDS_FORMAT`]).
+    pub format: u32,
+    /// [`THRESHOLDS_KIND`].
+    pub kind: String,
+    /// Robot model name.
+    pub robot: String,
+    /// Controller period the residual was computed at, s.
+    pub period_s: f64,
+    /// Observer gains K_I per joint, 1/s (the residual's noise scales with them).
+    pub gains: [f64; 7],
+    /// The identified arm the observer used (path as given; `null`: the nominal model). The
+    /// thresholds assume the same model in the service.
+    pub calibration: Option<String>,
+    /// The logs fitted.
+    pub logs: Vec<String>,
+    /// The schedule: θ0 per joint and its motion coefficients (as `collision calibrate`).
+    pub schedule: ThresholdSchedule,
+    /// Budget, recording length, blocks, covered speeds and accelerations.
+    pub recording: CalibrationInfo,
+    /// Per-joint fit.
+    pub joints: Vec<JointFit>,
+    /// Minimum detectable force per link at θ0, N.
+    pub min_force_at_rest: [LinkForce; 7],
+    /// Minimum detectable force per link at the recording's median scheduled thresholds, N.
+    pub min_force_median: [LinkForce; 7],
+}
+
+impl ThresholdsFile {
+    /// Reads and checks a thresholds file: version, the service's threshold and gain ranges at
+    /// the file's period, and finite, non-negative coefficients.
+    pub fn read(path: &Path) -> anyhow::Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read thresholds file {}", path.display()))?;
+        let f: ThresholdsFile = serde_json::from_str(&text)
+            .with_context(|| format!("thresholds file {}", path.display()))?;
+        f.check()
+            .with_context(|| format!("thresholds file {}", path.display()))?;
+        Ok(f)
+    }
+
+    fn check(&self) -> anyhow::Result<()> {
+        if self.format != THRESHOLDS_FORMAT || self.kind != THRESHOLDS_KIND {
+            bail!(
+                "`format` {} / `kind` {:?}: not a version-{THRESHOLDS_FORMAT} file of `{THRESHOLDS_KIND}`",
+                self.format,
+                self.kind
+            );
+        }
+        bounds::CYCLE_S.check("period_s", self.period_s)?;
+        let gain = bounds::gain(self.period_s);
+        let s = &self.schedule;
+        for j in 0..7 {
+            gain.check(&format!("gains[{}]", j + 1), self.gains[j])?;
+            bounds::threshold(j)
+                .check(&format!("schedule.thresholds[{}]", j + 1), s.thresholds[j])?;
+            for (name, v) in [
+                ("speed", s.speed[j]),
+                ("velocity_noise", s.velocity_noise[j]),
+                ("payload_dynamics", s.payload_dynamics[j]),
+                ("inertial", s.inertial[j]),
+                ("gravity", s.gravity[j]),
+            ] {
+                if !(v.is_finite() && v >= 0.0) {
+                    bail!(
+                        "schedule.{name}[{}] = {v} must be a finite number >= 0",
+                        j + 1
+                    );
+                }
+            }
+            if !(s.scale[j].is_finite() && s.scale[j] > 0.0) {
+                bail!(
+                    "schedule.scale[{}] = {} must be a positive number",
+                    j + 1,
+                    s.scale[j]
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes the file (pretty JSON).
+    pub fn write(&self, path: &Path) -> anyhow::Result<()> {
+        let text = serde_json::to_string_pretty(self)?;
+        std::fs::write(path, text + "\n")
+            .with_context(|| format!("cannot write {}", path.display()))
+    }
+}

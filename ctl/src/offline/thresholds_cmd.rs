@@ -1,0 +1,246 @@
+//! `offline calibrate-thresholds`: the service's threshold calibration (`safety::calibration`,
+//! as `collision calibrate` fits it) on the residual of the service's monitor over contact-free
+//! logs ([`super::monitor_run`]), written as a thresholds file ([`super::thresholds`]).
+
+use std::fmt::Write as _;
+use std::io::Write;
+use std::path::Path;
+
+use anyhow::bail;
+use dynamics::lwr4;
+use fri_api::bounds;
+use fri_api::results::{CalibrationInfo, JointFit, ThresholdSchedule};
+use nalgebra::SVector;
+use safety::calibration::{Calibration, EnvelopeRecorder, FitOptions};
+
+use super::args::CalibrateThresholdsArgs;
+use super::monitor_run::{
+    Setup, build, forces, identified, observer_model, per_joint, played, run,
+};
+use super::report::{force_rows, table_row};
+use super::thresholds::{THRESHOLDS_FORMAT, THRESHOLDS_KIND, ThresholdsFile};
+
+type V7 = SVector<f64, 7>;
+
+/// The fit as the service reports it (`collision calibrate`'s result types).
+fn schedule_of(fit: &Calibration<7>) -> ThresholdSchedule {
+    let array = |v: &V7| -> [f64; 7] { std::array::from_fn(|j| v[j]) };
+    ThresholdSchedule {
+        thresholds: array(&fit.thresholds_nm),
+        speed: array(&fit.velocity_coefficients),
+        velocity_noise: array(&fit.schedule.velocity_noise),
+        payload_dynamics: array(&fit.schedule.payload_dynamics),
+        inertial: array(&fit.schedule.inertial),
+        gravity: array(&fit.schedule.gravity),
+        scale: array(&fit.scale),
+    }
+}
+
+fn joint_fits(fit: &Calibration<7>) -> Vec<JointFit> {
+    fit.joints
+        .iter()
+        .map(|j| JointFit {
+            threshold_at_rest: j.threshold_at_rest_nm,
+            threshold_median: j.threshold_median_nm,
+            threshold_max: j.threshold_max_nm,
+            envelope: j.envelope,
+            model: match j.model {
+                safety::calibration::ExtremeModel::Gumbel => "gumbel".to_owned(),
+                safety::calibration::ExtremeModel::Gev => "gev".to_owned(),
+            },
+            shape_interval: j.shape_interval,
+            scale: j.scale,
+            scale_point: j.scale_point,
+            scale_std: j.scale_std,
+            scale_interval: j.scale_interval,
+            peak: j.peak_nm,
+            exceedances: j.exceedances,
+        })
+        .collect()
+}
+
+/// `offline calibrate-thresholds`.
+pub fn calibrate_thresholds(
+    a: &CalibrateThresholdsArgs,
+    out: &mut dyn Write,
+) -> anyhow::Result<()> {
+    bounds::FALSE_ALARM_BUDGET.check("budget", a.budget)?;
+    let nominal = lwr4();
+    let arm = identified(&a.calibration, &nominal)?;
+    let gains = match &a.gains {
+        Some(g) => per_joint("gains", g, |_| bounds::gain(a.period_s))?,
+        None => V7::repeat(safety::DEFAULT_GAIN),
+    };
+    let in_force = match &a.thresholds {
+        Some(t) => per_joint("thresholds", t, bounds::threshold)?,
+        None => V7::repeat(safety::DEFAULT_THRESHOLD_NM),
+    };
+    let setup = Setup {
+        period_s: a.period_s,
+        gains,
+        thresholds: in_force,
+        schedule: None,
+    };
+    let model = observer_model(&nominal, arm.as_ref());
+    let logs = played(&a.log, &nominal, a.period_s)?;
+    let mut recorder = EnvelopeRecorder::<7>::new();
+    for (name, pieces) in &logs {
+        let mut m = build(&model, &setup)?;
+        let r = run(
+            &mut m,
+            pieces,
+            arm.as_ref(),
+            a.period_s,
+            Some(&mut recorder),
+        );
+        if let Some(c) = r.crossings.first() {
+            bail!(
+                "{name}: the monitor detected a contact at t = {:.3} s at the thresholds in force ({:?} Nm): a recording with a contact in it would calibrate the contact away. If nothing touched the arm, raise --thresholds (or use --calibration) and calibrate again",
+                c.time_s,
+                in_force.as_slice()
+            );
+        }
+    }
+    let mut options = FitOptions::<7>::new(a.period_s);
+    options.budget_per_hour = a.budget;
+    options.floor_nm = V7::repeat(bounds::MIN_THRESHOLD_NM);
+    options.ceiling_nm = V7::from_fn(|j, _| bounds::threshold(j).max);
+    let fit = recorder
+        .fit(&options)
+        .map_err(|e| anyhow::anyhow!("calibration failed: {e}"))?;
+    let file = ThresholdsFile {
+        format: THRESHOLDS_FORMAT,
+        kind: THRESHOLDS_KIND.into(),
+        robot: nominal.name().into(),
+        period_s: a.period_s,
+        gains: std::array::from_fn(|j| gains[j]),
+        calibration: a.calibration.as_ref().map(|p| p.display().to_string()),
+        logs: logs.iter().map(|(n, _)| n.clone()).collect(),
+        schedule: schedule_of(&fit),
+        recording: CalibrationInfo {
+            budget_per_hour: fit.budget_per_hour,
+            duration_s: fit.duration_s,
+            blocks: fit.blocks,
+            block_s: fit.block_s,
+            max_speed: std::array::from_fn(|j| fit.joints[j].max_speed),
+            max_acceleration: std::array::from_fn(|j| fit.joints[j].max_acceleration),
+        },
+        joints: joint_fits(&fit),
+        min_force_at_rest: forces(&nominal, &fit.thresholds_nm),
+        min_force_median: forces(&nominal, &fit.median_thresholds_nm),
+    };
+    file.write(&a.out)?;
+    if a.json {
+        writeln!(out, "{}", serde_json::to_string_pretty(&file)?)?;
+        return Ok(());
+    }
+    write!(out, "{}", thresholds_report(&file, &a.out))?;
+    Ok(())
+}
+
+/// Joints ("J1"…) whose largest scheduled threshold over the recording is the service's
+/// ceiling: the extreme-value fit could not bound the residual there with this recording.
+fn at_ceiling(f: &ThresholdsFile) -> Vec<String> {
+    f.joints
+        .iter()
+        .enumerate()
+        .filter(|(j, x)| x.threshold_max >= bounds::threshold(*j).max * (1.0 - 1e-9))
+        .map(|(j, _)| format!("J{}", j + 1))
+        .collect()
+}
+
+fn thresholds_report(f: &ThresholdsFile, path: &Path) -> String {
+    let mut s = String::new();
+    let r = &f.recording;
+    let _ = writeln!(
+        s,
+        "Thresholds for {} false alarms/h (whole arm), fitted on {:.1} s ({} blocks of {} s) of {} at {} ms, gains {:?} 1/s; observer model: {}",
+        r.budget_per_hour,
+        r.duration_s,
+        r.blocks,
+        r.block_s,
+        f.logs.join(", "),
+        f.period_s * 1e3,
+        f.gains,
+        f.calibration
+            .as_deref()
+            .map_or("nominal".to_owned(), |c| format!("identified arm {c}"))
+    );
+    let header: Vec<String> = (1..=7).map(|j| format!("{:>8}", format!("J{j}"))).collect();
+    let _ = writeln!(s, "  {:<22} {:<5}{}", "", "", header.join(""));
+    let j = &f.joints;
+    table_row(
+        &mut s,
+        "θ at rest",
+        "Nm",
+        j.iter().map(|x| x.threshold_at_rest),
+        3,
+    );
+    table_row(
+        &mut s,
+        "θ median",
+        "Nm",
+        j.iter().map(|x| x.threshold_median),
+        3,
+    );
+    table_row(&mut s, "θ max", "Nm", j.iter().map(|x| x.threshold_max), 3);
+    table_row(&mut s, "peak |r|", "Nm", j.iter().map(|x| x.peak), 3);
+    table_row(
+        &mut s,
+        "scale s (θ/envelope)",
+        "",
+        j.iter().map(|x| x.scale),
+        2,
+    );
+    table_row(
+        &mut s,
+        "windows over θ",
+        "",
+        j.iter().map(|x| x.exceedances as f64),
+        0,
+    );
+    table_row(
+        &mut s,
+        "covered |q̇| max",
+        "rad/s",
+        r.max_speed.iter().copied(),
+        2,
+    );
+    table_row(
+        &mut s,
+        "covered |q̈| max",
+        "rad/s²",
+        r.max_acceleration.iter().copied(),
+        2,
+    );
+    let links: Vec<String> = (1..=7).map(|l| format!("{:>8}", format!("L{l}"))).collect();
+    let _ = writeln!(
+        s,
+        "  minimum detectable force (median over configurations, points, directions)"
+    );
+    let _ = writeln!(s, "  {:<22} {:<5}{}", "", "", links.join(""));
+    force_rows(&mut s, "at θ at rest", &f.min_force_at_rest);
+    force_rows(&mut s, "at the median θ", &f.min_force_median);
+    let capped = at_ceiling(f);
+    if !capped.is_empty() {
+        let _ = writeln!(
+            s,
+            "  WARNING: the fit reaches the service's ceiling (a quarter of the torque limit) on {} in the recorded motion: there the budget is met only by not detecting; record longer or more of the task and calibrate again",
+            capped.join(", ")
+        );
+    }
+    let _ = writeln!(
+        s,
+        "  written to {} (check them on another recording: fri-ctl offline monitor --log OTHER --thresholds {}{})",
+        path.display(),
+        path.display(),
+        f.calibration
+            .as_deref()
+            .map_or(String::new(), |c| format!(" --calibration {c}"))
+    );
+    let _ = writeln!(
+        s,
+        "  the service installs a schedule from `collision calibrate --apply`; installing this file needs `collision configure --from` (not yet in the service)"
+    );
+    s
+}

@@ -226,7 +226,7 @@ pub(crate) fn run(
                 if settle > 0 {
                     settle -= 1;
                 } else {
-                    recorder.push(&r, &f);
+                    recorder.push(s.t, &r, &f);
                 }
             }
         }

@@ -436,20 +436,26 @@ mod tests {
             "{margin:?}"
         );
         assert!(clean.fit(&options).is_ok());
-        // 1 Nm held on joint 2 (ten times its noise) for 3 s from 40.5 s.
-        let touched = record(120.0, Some((40.5, 3.0, 1.0)), 5);
+        // 0.5 Nm held on joint 2 (five times its noise) for 3 s scores beyond the limit but
+        // is below MIN_CONTACT_NM: the recording is fitted.
+        let small = record(120.0, Some((40.5, 3.0, 0.5)), 5);
+        let m = small.screen_margin(&options).unwrap();
+        assert!(m.scores[1] > m.limit, "{m:?}");
+        assert!(small.fit(&options).is_ok());
+        // 2 Nm held on joint 2 (twenty times its noise) for 3 s from 40.5 s.
+        let touched = record(120.0, Some((40.5, 3.0, 2.0)), 5);
         match touched.fit(&options) {
             Err(super::super::CalibrationError::ContactInRecording(o)) => {
                 assert_eq!(o.joint, 1, "{o:?}");
                 assert!((o.onset_s - 40.5).abs() < 0.15, "{o:?}");
                 assert!(o.peak_s >= o.onset_s && o.peak_s < 43.6, "{o:?}");
-                assert!((o.residual_nm - 1.0).abs() < 0.1, "{o:?}");
+                assert!((o.residual_nm - 2.0).abs() < 0.2, "{o:?}");
                 assert!(o.score > o.limit, "{o:?}");
             }
             other => panic!("{other:?}"),
         }
         // A contact a quarter of the recording long is still found (the quartiles hold).
-        let long = record(120.0, Some((30.0, 28.0, 1.0)), 6);
+        let long = record(120.0, Some((30.0, 28.0, 2.0)), 6);
         assert!(matches!(
             long.fit(&options),
             Err(super::super::CalibrationError::ContactInRecording(o)) if o.joint == 1

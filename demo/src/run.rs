@@ -499,7 +499,9 @@ async fn phases(
                 Command::Record {
                     path: record_path,
                     kind: RecordKind::Log,
-                    duration_s: Some(FREE_MOTION_S + 2.0),
+                    // Ends before the controller does (FREE_MOTION_S + 0.5 s): a recording
+                    // whose controller falls silent fails (issue 20 item 9).
+                    duration_s: Some(FREE_MOTION_S + 0.25),
                     count: None,
                 },
                 |_, _| {},

@@ -148,8 +148,15 @@ async fn a_default_bridge_serves_no_command_to_a_rogue_participant() {
         !s.stopped && s.monitor.armed && s.payload.is_none(),
         "{s:?}"
     );
+    // Nothing changed at anyone's request: the only records allowed are the loop's own
+    // (a monitor restart after a gap the loaded test host causes).
     let records = audit.finish().await;
-    assert!(records.is_empty(), "{records:?}");
+    assert!(
+        records
+            .iter()
+            .all(|r| matches!(r.change, Change::MonitorRestarted { .. })),
+        "{records:?}"
+    );
     stop_all(Some(bridge), robot, service).await;
 }
 

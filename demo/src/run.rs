@@ -204,12 +204,17 @@ fn demo_config(dir: &Path) -> Config {
     c
 }
 
-async fn wait_fresh_state(client: &mut Client, after_cycle: Option<u64>) -> anyhow::Result<()> {
+/// Waits until the service's cycle count passes `after_cycle + margin` (a controller heard).
+async fn wait_fresh_state(
+    client: &mut Client,
+    after_cycle: Option<u64>,
+    margin: u64,
+) -> anyhow::Result<()> {
     for _ in 0..1000 {
         let s = client.call(Command::Status, |_, _| {}).await?;
         if let Ok(s) = s
             && let Some(c) = s["cycle"].as_u64()
-            && after_cycle.is_none_or(|a| c > a + 50)
+            && after_cycle.is_none_or(|a| c > a + margin)
         {
             return Ok(());
         }
@@ -221,6 +226,27 @@ async fn wait_fresh_state(client: &mut Client, after_cycle: Option<u64>) -> anyh
 async fn current_cycle(client: &mut Client) -> anyhow::Result<Option<u64>> {
     let s = client.call(Command::Status, |_, _| {}).await?;
     Ok(s.ok().and_then(|s| s["cycle"].as_u64()))
+}
+
+/// The service's cycle count and clock (s) at its newest measurement, read once they stopped
+/// changing: the previous controller's datagrams are all processed.
+async fn service_clock(client: &mut Client) -> anyhow::Result<(u64, f64)> {
+    let mut last = None;
+    for _ in 0..100 {
+        let s = client
+            .call(Command::Status, |_, _| {})
+            .await?
+            .map_err(|e| anyhow::anyhow!("status failed: {}", e.message))?;
+        let now = s["cycle"].as_u64().zip(s["time_s"].as_f64());
+        if let Some(settled) = now
+            && last == now
+        {
+            return Ok(settled);
+        }
+        last = now;
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    bail!("the service's clock did not settle after the previous controller ended")
 }
 
 /// Runs the demo.
@@ -300,7 +326,7 @@ async fn phases(
         sim(opts.seed, false),
         ServerConfig::loopback(fri, opts.pacing),
     )?;
-    wait_fresh_state(&mut client, None).await?;
+    wait_fresh_state(&mut client, None, 50).await?;
     let tare = client
         .call(
             Command::Tare {
@@ -351,7 +377,7 @@ async fn phases(
         .context("the simulated controller of the tare phase failed")?;
     robot.set_payload_attached(true);
     let driver = mock_robot::spawn(robot, ServerConfig::loopback(fri, opts.pacing))?;
-    wait_fresh_state(&mut client, before).await?;
+    wait_fresh_state(&mut client, before, 50).await?;
     let est = client
         .call(
             Command::EstimatePayload {
@@ -488,7 +514,20 @@ async fn phases(
     } else {
         std::env::current_dir()?.join(&log)
     };
-    // Recording and watching start before the controller run so that t = 0 is its first cycle.
+    // The previous phase's controller has ended (joined). After the 0.2 s a rebind needs
+    // (see `demo_config`), the service's clock at its last measurement fixes t = 0 of this
+    // run: the new controller's first measurement is counted one cycle later. Recording and
+    // watching start once the new controller is heard (a recording needs a live controller,
+    // and one begun on the old controller's last breath fails when it falls silent); the few
+    // cycles before that are missing from the log, never misplaced in time.
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let (before_cycle, before_time) = service_clock(&mut client).await?;
+    let t0 = before_time + cycle_s;
+    let driver = mock_robot::spawn_new(
+        free_motion(opts.seed),
+        ServerConfig::loopback(fri, opts.pacing),
+    )?;
+    wait_fresh_state(&mut client, Some(before_cycle), 0).await?;
     // The service writes only into its recording directory (in the demo's work directory); the
     // log is copied to the output directory afterwards.
     let mut recorder = Client::connect(socket).await?;
@@ -499,9 +538,10 @@ async fn phases(
                 Command::Record {
                     path: record_path,
                     kind: RecordKind::Log,
-                    // Ends before the controller does (FREE_MOTION_S + 0.5 s): a recording
-                    // whose controller falls silent fails (issue 20 item 9).
-                    duration_s: Some(FREE_MOTION_S + 0.25),
+                    // Ends before the controller does (FREE_MOTION_S + 0.5 s after t = 0, the
+                    // first row is a little later): a recording whose controller falls silent
+                    // fails (issue 20 item 9).
+                    duration_s: Some(FREE_MOTION_S),
                     count: None,
                 },
                 |_, _| {},
@@ -522,11 +562,6 @@ async fn phases(
             })
             .await;
     });
-    tokio::time::sleep(Duration::from_millis(200)).await;
-    let driver = mock_robot::spawn_new(
-        free_motion(opts.seed),
-        ServerConfig::loopback(fri, opts.pacing),
-    )?;
     let recorded = record
         .await
         .context("recording task")??
@@ -550,7 +585,6 @@ async fn phases(
     // 4. Evaluation and plots.
     say(opts, "[4/4] evaluating residuals and plotting ...");
     let rows = read_log(&log_abs)?;
-    let t0 = rows.first().map_or(0.0, |r| r.time_s);
     let online_rel: Vec<f64> = online
         .lock()
         .map(|v| v.iter().map(|t| t - t0).collect())
@@ -803,7 +837,7 @@ async fn calibrate_thresholds(
     // it): 26 s of recording, the motion and then rest, within the run.
     task.duration_s = Some(CALIBRATION_RECORD_S + 2.0);
     let driver = mock_robot::spawn_new(task, ServerConfig::loopback(fri, opts.pacing))?;
-    wait_fresh_state(client, before).await?;
+    wait_fresh_state(client, before, 50).await?;
     let reply = client
         .call(
             Command::CollisionCalibrate {

@@ -5,8 +5,8 @@
 
 use crate::config::FrictionSpec;
 #[cfg(test)]
-use crate::config::JOINTS;
-use crate::sensors::JointVector;
+use crate::joints::JOINTS;
+use crate::joints::JointVector;
 
 /// Friction torque per joint at joint velocity `qd` (rad/s), Nm, opposing the motion.
 pub fn friction_torque(spec: &FrictionSpec, qd: &JointVector) -> JointVector {

@@ -4,15 +4,14 @@
 //! joint at start, the drift is a random walk (so averaging a long window cannot remove every
 //! error). The encoder reading is the true angle quantised to the encoder step.
 
-use nalgebra::SVector;
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 use rand_distr::{Distribution, StandardNormal};
 
-use crate::config::{JOINTS, SensorSpec};
+use crate::config::SensorSpec;
+use crate::joints::JOINTS;
 
-/// Joint vector, f64.
-pub type JointVector = SVector<f64, JOINTS>;
+pub use crate::joints::JointVector;
 
 /// Rounds `value` to the nearest multiple of `step` (no rounding when `step` is 0).
 pub fn quantise(value: f64, step: f64) -> f64 {

@@ -4,10 +4,12 @@
 //! controller on the wire (916-byte measurements, 376-byte commands, statistics, quality,
 //! OFF/MON/CMD, the KRL handshake of the project contracts) and like the real arm in physics
 //! (payload, motor-side friction, sensor noise/offset/drift/quantisation, a perturbed controller
-//! model without the payload, contacts). See docs/mock-robot.md.
+//! model without the payload, contacts). It can also play a recorded log as the controller
+//! ([`replay`], monitor mode only). See docs/mock-robot.md.
 
 pub mod config;
 pub mod contact;
+pub mod controller;
 pub mod error;
 pub mod faults;
 pub mod friction;
@@ -16,6 +18,7 @@ pub mod krl;
 mod link;
 pub mod models;
 pub mod motion;
+pub mod replay;
 mod report;
 pub mod sensors;
 pub mod server;
@@ -25,7 +28,9 @@ pub mod testkit;
 pub mod truth;
 
 pub use config::SimulationConfig;
+pub use controller::{Controller, ControllerEvent, EventKind};
 pub use error::SimError;
+pub use replay::Replay;
 pub use server::{
     AnswerCounts, MockRobotHandle, RunSummary, ServerConfig, TimingMode, spawn, spawn_new,
 };

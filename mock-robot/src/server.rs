@@ -8,6 +8,9 @@
 //!   deterministic given the remote's answers, and faster than real time.
 //!
 //! As on the real controller, the simulation sends first and talks to one remote (`client`).
+//! Any [`Controller`] runs here: the simulation, or a replayed log ([`crate::replay::Replay`]).
+//! Changes of the controller's FRI state are logged as they happen (target
+//! `mock_robot::controller`, INFO).
 
 use std::io::{BufWriter, ErrorKind};
 use std::net::{SocketAddr, UdpSocket};
@@ -20,6 +23,7 @@ use std::time::{Duration, Instant};
 use fri::wire::{Command, MSR_LEN};
 
 use crate::config::SimulationConfig;
+use crate::controller::Controller;
 use crate::error::SimError;
 use crate::simulation::Simulation;
 use crate::truth::TruthLog;
@@ -213,16 +217,21 @@ fn recv_until(socket: &UdpSocket, buf: &mut [u8], deadline: Instant) -> Option<(
     }
 }
 
-/// Runs `sim` on `socket` until the scenario ends, `stop` is set or `max_cycles` is reached;
-/// `counters` follow the run live.
-pub fn run(
-    sim: &mut Simulation,
+/// Runs `sim` on `socket` until the controller ends (scenario or log over, FRI closed), `stop`
+/// is set or `max_cycles` is reached; `counters` follow the run live.
+pub fn run<C: Controller>(
+    sim: &mut C,
     socket: &UdpSocket,
     config: &ServerConfig,
     stop: &AtomicBool,
     counters: &RunCounters,
 ) -> Result<RunSummary, SimError> {
     let mut truth = match &config.truth_log {
+        Some(_) if sim.simulation().is_none() => {
+            return Err(SimError::InvalidConfig(
+                "a truth log needs a simulation; a replayed log has no ground truth".into(),
+            ));
+        }
         Some(path) => Some(TruthLog::new(BufWriter::new(std::fs::File::create(path)?))?),
         None => None,
     };
@@ -292,8 +301,11 @@ pub fn run(
             }
         }
         let msr = *sim.advance();
-        if let Some(log) = truth.as_mut() {
-            log.record(sim, &msr)?;
+        while let Some(event) = sim.poll_event() {
+            tracing::info!(target: "mock_robot::controller", "{event}");
+        }
+        if let (Some(log), Some(simulation)) = (truth.as_mut(), sim.simulation()) {
+            log.record(simulation, &msr)?;
         }
         summary.cycles += 1;
         counters.cycles.fetch_add(1, Ordering::Relaxed);
@@ -315,16 +327,16 @@ fn answers(datagram: &[u8], msr_seq: u16) -> bool {
     Command::parse(datagram).is_ok_and(|c| c.header.refl_seq_count == msr_seq)
 }
 
-/// A controller running on its own thread.
+/// A controller (by default a [`Simulation`]) running on its own thread.
 #[derive(Debug)]
-pub struct MockRobotHandle {
+pub struct MockRobotHandle<C = Simulation> {
     local_addr: SocketAddr,
     stop: Arc<AtomicBool>,
     counters: Arc<RunCounters>,
-    thread: JoinHandle<Result<(Simulation, RunSummary), SimError>>,
+    thread: JoinHandle<Result<(C, RunSummary), SimError>>,
 }
 
-impl MockRobotHandle {
+impl<C> MockRobotHandle<C> {
     /// The controller's socket address (where its measurements come from).
     pub fn local_addr(&self) -> SocketAddr {
         self.local_addr
@@ -345,8 +357,8 @@ impl MockRobotHandle {
         self.thread.is_finished()
     }
 
-    /// Stops the controller and returns the final simulation (for ground truth) and summary.
-    pub fn join(self) -> Result<(Simulation, RunSummary), SimError> {
+    /// Stops the controller and returns it (a simulation, for ground truth) and the summary.
+    pub fn join(self) -> Result<(C, RunSummary), SimError> {
         self.stop();
         self.thread
             .join()
@@ -364,7 +376,10 @@ pub fn spawn_new(
 
 /// Binds the socket and runs `sim` on a new thread; a simulation returned by
 /// [`MockRobotHandle::join`] carries on where it stopped (time, sensor drift, noise).
-pub fn spawn(mut sim: Simulation, config: ServerConfig) -> Result<MockRobotHandle, SimError> {
+pub fn spawn<C: Controller + Send + 'static>(
+    mut sim: C,
+    config: ServerConfig,
+) -> Result<MockRobotHandle<C>, SimError> {
     let socket = UdpSocket::bind(config.bind)?;
     let local_addr = socket.local_addr()?;
     let stop = Arc::new(AtomicBool::new(false));

@@ -1,7 +1,8 @@
-//! Deterministic in-process test harness: the simulated controller ([`Simulation`]) and an FRI
-//! remote built on the sans-IO `fri` crate run in step, one controller cycle per call, without
-//! UDP, threads or sleeps. Time is the simulation's own clock, so a test gives the same result
-//! on a loaded machine as on an idle one.
+//! Deterministic in-process test harness: the controller (any [`Controller`]: the simulation,
+//! [`crate::Simulation`], or a replayed log, [`crate::Replay`]) and an FRI remote built on the
+//! sans-IO `fri` crate run in step, one controller cycle per call, without UDP, threads or
+//! sleeps. Time is the controller's own clock, so a test gives the same result on a loaded
+//! machine as on an idle one.
 //!
 //! Two remotes: [`Client`] answers with a bare `fri::session::Session` (the test sets
 //! `desired` and requests between cycles); [`EndpointClient`] runs the endpoint's real loop
@@ -36,7 +37,7 @@ use fri::handshake::{
 use fri::session::{DesiredCommand, Session, SessionConfig};
 use fri::wire::{CMD_LEN, Command, CommandFlags, InterfaceState, MSR_LEN, Measurement};
 
-use crate::{Simulation, SimulationConfig};
+use crate::{Controller, SimulationConfig};
 
 /// The source address the remote sees for the simulated controller (the mock's UDP default).
 pub const CONTROLLER: SocketAddr = SocketAddr::new(IpAddr::V4(Ipv4Addr::LOCALHOST), 49939);
@@ -74,13 +75,13 @@ pub enum EnterCommandError {
 
 /// The encoded current measurement, or `None` when it does not encode (a value outside f32):
 /// such a datagram could not have been sent, so the remote sees nothing this cycle.
-fn datagram(sim: &Simulation) -> Option<[u8; MSR_LEN]> {
+fn datagram(sim: &impl Controller) -> Option<[u8; MSR_LEN]> {
     let mut bytes = [0u8; MSR_LEN];
     sim.measurement().emit(&mut bytes).ok().map(|()| bytes)
 }
 
 /// The remote's clock for the current measurement: the simulation's time after `start`.
-fn remote_time(start: Instant, sim: &Simulation) -> Instant {
+fn remote_time(start: Instant, sim: &impl Controller) -> Instant {
     start + Duration::from_secs_f64(sim.time_s().max(0.0))
 }
 
@@ -121,7 +122,7 @@ impl Client {
 
     /// One cycle: the session answers the current measurement, the simulation advances;
     /// returns the next measurement.
-    pub fn cycle(&mut self, sim: &mut Simulation) -> Measurement {
+    pub fn cycle<C: Controller>(&mut self, sim: &mut C) -> Measurement {
         let now = remote_time(self.start, sim);
         if let Some(bytes) = datagram(sim) {
             let mut out = [0u8; CMD_LEN];
@@ -144,14 +145,14 @@ impl Client {
     }
 
     /// Runs `cycles` cycles; returns the last measurement (the current one for 0).
-    pub fn run(&mut self, sim: &mut Simulation, cycles: usize) -> Measurement {
+    pub fn run<C: Controller>(&mut self, sim: &mut C, cycles: usize) -> Measurement {
         run(sim, cycles, |sim| self.cycle(sim))
     }
 
     /// Runs until `pred` holds on a measurement, at most `max` cycles; returns it.
-    pub fn run_until(
+    pub fn run_until<C: Controller>(
         &mut self,
-        sim: &mut Simulation,
+        sim: &mut C,
         max: usize,
         pred: impl Fn(&Measurement) -> bool,
     ) -> Option<Measurement> {
@@ -184,7 +185,7 @@ impl<H: CycleHook> EndpointClient<H> {
 
     /// One cycle: the responder (session, hook, reply) answers the current measurement, the
     /// simulation advances; returns the next measurement.
-    pub fn cycle(&mut self, sim: &mut Simulation) -> Measurement {
+    pub fn cycle<C: Controller>(&mut self, sim: &mut C) -> Measurement {
         let now = remote_time(self.start, sim);
         if let Some(bytes) = datagram(sim) {
             let mut out = [0u8; CMD_LEN];
@@ -200,14 +201,14 @@ impl<H: CycleHook> EndpointClient<H> {
     }
 
     /// Runs `cycles` cycles; returns the last measurement (the current one for 0).
-    pub fn run(&mut self, sim: &mut Simulation, cycles: usize) -> Measurement {
+    pub fn run<C: Controller>(&mut self, sim: &mut C, cycles: usize) -> Measurement {
         run(sim, cycles, |sim| self.cycle(sim))
     }
 
     /// Runs until `pred` holds on a measurement, at most `max` cycles; returns it.
-    pub fn run_until(
+    pub fn run_until<C: Controller>(
         &mut self,
-        sim: &mut Simulation,
+        sim: &mut C,
         max: usize,
         pred: impl Fn(&Measurement) -> bool,
     ) -> Option<Measurement> {
@@ -220,10 +221,10 @@ impl<H: CycleHook> EndpointClient<H> {
     }
 }
 
-fn run(
-    sim: &mut Simulation,
+fn run<C: Controller>(
+    sim: &mut C,
     cycles: usize,
-    mut cycle: impl FnMut(&mut Simulation) -> Measurement,
+    mut cycle: impl FnMut(&mut C) -> Measurement,
 ) -> Measurement {
     let mut m = *sim.measurement();
     for _ in 0..cycles {
@@ -232,11 +233,11 @@ fn run(
     m
 }
 
-fn run_until(
-    sim: &mut Simulation,
+fn run_until<C: Controller>(
+    sim: &mut C,
     max: usize,
     pred: impl Fn(&Measurement) -> bool,
-    mut cycle: impl FnMut(&mut Simulation) -> Measurement,
+    mut cycle: impl FnMut(&mut C) -> Measurement,
 ) -> Option<Measurement> {
     (0..max).map(|_| cycle(sim)).find(|m| pred(m))
 }
@@ -266,8 +267,8 @@ pub fn quiet_config() -> SimulationConfig {
 
 /// Warms the link up ([`WARM_UP_CYCLES`], quality PERFECT) and enters command mode with
 /// `strategy`, waiting at most [`ENTER_TIMEOUT_CYCLES`]; returns the first measurement in it.
-pub fn enter_command(
-    sim: &mut Simulation,
+pub fn enter_command<C: Controller>(
+    sim: &mut C,
     client: &mut Client,
     strategy: KrlStrategy,
 ) -> Result<Measurement, EnterCommandError> {
@@ -349,7 +350,7 @@ mod tests {
 
     #[test]
     fn an_endpoint_client_runs_a_hook_into_command_mode() -> Result<(), crate::SimError> {
-        let mut sim = Simulation::new(quiet_config())?;
+        let mut sim = crate::Simulation::new(quiet_config())?;
         let mut client = EndpointClient::new(SessionConfig::default(), Starter::default());
         let m = client.run_until(&mut sim, 2000, in_command);
         assert!(m.is_some(), "command mode reached");

@@ -36,3 +36,29 @@ fn step_cycle_is_allocation_free_with_contacts_faults_and_motion() {
     assert_eq!(allocations, 0);
     assert!(sim.contacts()[0].onset_s.is_some());
 }
+
+#[test]
+fn a_replay_cycle_is_allocation_free() {
+    use mock_robot::{Controller, Replay};
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/data/real-lwr4/flobaroid-run2.csv");
+    let mut replay = Replay::from_file(&path, 1).unwrap();
+    let allocations = alloc_counter::count_allocations(|| {
+        for k in 0..2000u16 {
+            let m = *replay.measurement();
+            let mut cmd = Command::default();
+            cmd.header.send_seq_count = k;
+            cmd.header.refl_seq_count = m.header.send_seq_count;
+            cmd.jnt_pos = m.mirrored_joint_position();
+            // A start request now and then: refused, reported as an event, never allocating.
+            cmd.krl.int[15] = 10;
+            cmd.krl.int[13] = i32::from(k / 100);
+            let mut bytes = [0u8; CMD_LEN];
+            cmd.emit(&mut bytes).unwrap();
+            replay.submit_datagram(&bytes, 1e-4);
+            replay.advance();
+        }
+    });
+    assert_eq!(allocations, 0);
+    assert!(replay.poll_event().is_some());
+}

@@ -94,3 +94,78 @@ fn binary_runs_scenario_in_lockstep_and_writes_truth() {
     let row: Vec<&str> = text.lines().nth(100).unwrap().split(',').collect();
     assert_eq!(row[4], "0");
 }
+
+/// The first `rows` rows of the real run 2 (`../shared` beside the repository) as a CSV file.
+fn short_real_log(dir: &std::path::Path, rows: usize) -> std::path::PathBuf {
+    let real = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/data/real-lwr4/flobaroid-run2.csv");
+    let text = std::fs::read_to_string(real).expect("the real recordings are in ../shared");
+    let short: String = text
+        .lines()
+        .take(rows + 1)
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let path = dir.join("run2-short.csv");
+    std::fs::write(&path, short).unwrap();
+    path
+}
+
+#[test]
+fn binary_replays_a_real_log_refuses_command_mode_and_ends_with_the_log() {
+    use fri::handshake::{KrlStrategy, RequestKind};
+    let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
+    socket
+        .set_read_timeout(Some(Duration::from_millis(200)))
+        .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let log = short_real_log(dir.path(), 300);
+    let total = mock_robot::Replay::from_file(&log, 1)
+        .unwrap()
+        .total_cycles();
+    let child = Process::new(env!("CARGO_BIN_EXE_mock-robot"))
+        .args(["--client", &socket.local_addr().unwrap().to_string()])
+        .args(["--bind", "127.0.0.1:0", "--lockstep", "--replay"])
+        .arg(&log)
+        .env("RUST_LOG", "info")
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut session = Session::new(SessionConfig::default());
+    let (mut buf, mut out) = ([0u8; 2048], [0u8; CMD_LEN]);
+    let mut received = 0u64;
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while Instant::now() < deadline && received < total {
+        if let Ok((n, from)) = socket.recv_from(&mut buf) {
+            received += 1;
+            if received == 300 {
+                session.request(RequestKind::StartCommandMode, KrlStrategy::JointPosition);
+            }
+            let now = Instant::now();
+            let info = session
+                .step(&buf[..n], from, now, &DesiredCommand::default(), &mut out)
+                .unwrap();
+            socket.send_to(&out, info.destination).unwrap();
+        }
+    }
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert_eq!(received, total, "{stderr}");
+    assert!(
+        stderr.contains("command mode refused: reason 7 (strategy not supported)"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("replay finished"), "{stderr}");
+    assert!(stderr.contains("end of the log"), "{stderr}");
+}
+
+#[test]
+fn a_replay_takes_no_scenario_and_writes_no_truth_log() {
+    let out = Process::new(env!("CARGO_BIN_EXE_mock-robot"))
+        .args(["--replay", "x.csv", "--truth-log", "t.csv"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("cannot be used with"), "{stderr}");
+}

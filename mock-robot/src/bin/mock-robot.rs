@@ -1,7 +1,8 @@
 //! `mock-robot`: a simulated KRC2lr FRI controller with LWR 4+ physics on UDP.
 //!
 //! Sends 916-byte measurements to `--client` (default 127.0.0.1:49938, where `fri-monitor` and
-//! the service listen) every cycle and runs until interrupted or until the scenario ends.
+//! the service listen) every cycle and runs until interrupted or until the scenario ends; with
+//! `--replay FILE` it plays a recorded log instead (monitor mode only) and ends with the log.
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -10,8 +11,9 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use clap::Parser;
-use mock_robot::server::{self, DEFAULT_LOCKSTEP_TIMEOUT, ServerConfig, TimingMode};
-use mock_robot::{Simulation, SimulationConfig};
+use mock_robot::replay::{Derivatives, Replay};
+use mock_robot::server::{self, DEFAULT_LOCKSTEP_TIMEOUT, RunSummary, ServerConfig, TimingMode};
+use mock_robot::{Controller, Simulation, SimulationConfig};
 
 /// Simulated KUKA KRC2lr controller (FRI 1.x) with LWR 4+ physics, payload and contacts.
 #[derive(Debug, Parser)]
@@ -61,6 +63,18 @@ struct Args {
     /// Write the ground-truth CSV here.
     #[arg(long)]
     truth_log: Option<PathBuf>,
+    /// Play this recorded log as the controller instead of simulating (CSV with `t` or `time_s`,
+    /// q1..q7, tau1..tau7, optional qd1..qd7, qdd1..qdd7; or MCAP with /joint_states): monitor
+    /// mode only, ends with the log.
+    #[arg(
+        long,
+        value_name = "FILE",
+        conflicts_with_all = [
+            "scenario", "payload_mass", "payload_com", "initial_q", "torque_noise", "seed",
+            "duration", "truth_log",
+        ]
+    )]
+    replay: Option<PathBuf>,
 }
 
 static STOP: AtomicBool = AtomicBool::new(false);
@@ -121,12 +135,13 @@ fn main() -> Result<()> {
     let args = Args::parse();
     tracing_subscriber::fmt()
         .with_writer(std::io::stderr)
+        // Colours only for a person at a terminal, not in a file or a pipe.
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env()
                 .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
         )
         .init();
-    let config = build_config(&args)?;
     let mode = if args.lockstep {
         TimingMode::Lockstep {
             answer_timeout: Duration::from_millis(args.lockstep_timeout_ms.max(1)),
@@ -134,20 +149,6 @@ fn main() -> Result<()> {
     } else {
         TimingMode::RealTime
     };
-    let name = config.name.clone();
-    let sim = Simulation::new(config).context("cannot build the simulation")?;
-    let socket = std::net::UdpSocket::bind(args.bind)
-        .with_context(|| format!("cannot bind {}", args.bind))?;
-    tracing::info!(
-        scenario = %name,
-        local = %socket.local_addr()?,
-        client = %args.client,
-        cycle_ms = sim.cycle_s() * 1e3,
-        ?mode,
-        end_s = ?sim.end_time_s(),
-        "mock robot running"
-    );
-    install_signal_handlers();
     let server_config = ServerConfig {
         bind: args.bind,
         client: args.client,
@@ -155,11 +156,35 @@ fn main() -> Result<()> {
         max_cycles: None,
         truth_log: args.truth_log.clone(),
     };
-    let mut sim = sim;
+    match &args.replay {
+        Some(path) => replay(path, &args, &server_config),
+        None => simulate(&args, &server_config),
+    }
+}
+
+fn bind(args: &Args) -> Result<std::net::UdpSocket> {
+    std::net::UdpSocket::bind(args.bind).with_context(|| format!("cannot bind {}", args.bind))
+}
+
+fn simulate(args: &Args, server_config: &ServerConfig) -> Result<()> {
+    let config = build_config(args)?;
+    let name = config.name.clone();
+    let mut sim = Simulation::new(config).context("cannot build the simulation")?;
+    let socket = bind(args)?;
+    tracing::info!(
+        scenario = %name,
+        local = %socket.local_addr()?,
+        client = %args.client,
+        cycle_ms = sim.cycle_s() * 1e3,
+        mode = ?server_config.mode,
+        end_s = ?sim.end_time_s(),
+        "mock robot running"
+    );
+    install_signal_handlers();
     let summary = server::run(
         &mut sim,
         &socket,
-        &server_config,
+        server_config,
         &STOP,
         &server::RunCounters::default(),
     )
@@ -181,6 +206,62 @@ fn main() -> Result<()> {
         state = ?sim.fri_state(),
         last_drop_reason = sim.drop_reason_code(),
         "mock robot finished"
+    );
+    Ok(())
+}
+
+fn replay(path: &std::path::Path, args: &Args, server_config: &ServerConfig) -> Result<()> {
+    let mut replay = Replay::from_file(path, args.cycle_ms.unwrap_or(1))
+        .with_context(|| format!("cannot replay {}", path.display()))?;
+    let socket = bind(args)?;
+    let log = replay.log();
+    let derivatives = match log.derivatives() {
+        Derivatives::Recorded => "velocities and accelerations recorded",
+        Derivatives::VelocityRecorded => "velocities recorded, accelerations differentiated",
+        Derivatives::Differentiated => "velocities and accelerations differentiated",
+    };
+    tracing::info!(
+        log = %path.display(),
+        rows = log.rows(),
+        duration_s = log.duration_s(),
+        cycles = replay.total_cycles(),
+        cycle_ms = replay.cycle_s() * 1e3,
+        local = %socket.local_addr()?,
+        client = %args.client,
+        mode = ?server_config.mode,
+        "replaying a recorded log as the controller (monitor mode only; {derivatives})"
+    );
+    install_signal_handlers();
+    let summary: RunSummary = server::run(
+        &mut replay,
+        &socket,
+        server_config,
+        &STOP,
+        &server::RunCounters::default(),
+    )
+    .context("controller loop failed")?;
+    let counters = replay.receive_counters();
+    let ended = if replay.fri_state() == mock_robot::krl::FriState::Off {
+        "FRI closed on request"
+    } else if summary.cycles >= replay.total_cycles() {
+        "end of the log"
+    } else {
+        "stopped"
+    };
+    tracing::info!(
+        ended,
+        cycles = summary.cycles,
+        of = replay.total_cycles(),
+        replayed_s = summary.sim_time_s,
+        wall_time_s = summary.wall_time_s,
+        speed = summary.speed_factor(),
+        late_cycles = summary.late_cycles,
+        answers = counters.answers,
+        missed = counters.missed_cycles,
+        malformed = counters.malformed,
+        stale = counters.stale,
+        last_refusal_reason = replay.drop_reason_code(),
+        "replay finished"
     );
     Ok(())
 }

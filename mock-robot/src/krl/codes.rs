@@ -96,6 +96,14 @@ impl Strategy {
         }
     }
 
+    /// Name of the strategy, as the operator's manual calls it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Position => "joint position",
+            Self::JointImpedance => "joint impedance",
+        }
+    }
+
     /// Command flags a remote must send for this strategy.
     pub fn required_flags(self) -> u32 {
         match self {
@@ -127,6 +135,20 @@ pub enum DropReason {
 }
 
 impl DropReason {
+    /// What the code means (docs/mock-robot.md, the drop table).
+    pub fn text(self) -> &'static str {
+        match self {
+            Self::QualityTooLow => "quality too low",
+            Self::AnswersMissed => "answers missed",
+            Self::SetPointNotMirrored => "set-point not mirrored at entry",
+            Self::FlagsChanged => "command flags changed or wrong for the strategy",
+            Self::SetPointJump => "set-point jump",
+            Self::AddedTorqueNotInitialised => "added torque not zero at entry",
+            Self::StrategyNotSupported => "strategy not supported",
+            Self::OperatorStop => "operator or KRL stop",
+        }
+    }
+
     /// The code reported in `msr.krl.intData[12]`.
     pub fn code(self) -> i32 {
         match self {

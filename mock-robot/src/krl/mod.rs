@@ -88,6 +88,8 @@ pub struct KrlProgram {
     starts_to_ignore: u32,
     /// Id of the start request being missed (0: none).
     ignored_id: i32,
+    /// Refuses every start (a replayed recording cannot follow set-points).
+    monitor_only: bool,
 }
 
 impl KrlProgram {
@@ -110,12 +112,25 @@ impl KrlProgram {
             closed: false,
             starts_to_ignore: spec.ignored_start_requests,
             ignored_id: 0,
+            monitor_only: false,
+        }
+    }
+
+    /// A program that offers monitor mode only: it acknowledges every start request and refuses
+    /// it with reason 7 (strategy not supported), as a replayed recording must.
+    pub fn monitor_only(spec: &ControllerSpec, cycle_s: f64) -> Self {
+        Self {
+            monitor_only: true,
+            ..Self::new(spec, cycle_s)
         }
     }
 
     /// Restarts the program (controller restart): back to freshly opened monitor mode.
     pub fn restart(&mut self) {
-        *self = Self::new(&self.spec, self.cycle_s);
+        *self = Self {
+            monitor_only: self.monitor_only,
+            ..Self::new(&self.spec, self.cycle_s)
+        };
     }
 
     /// FRI state.
@@ -259,6 +274,11 @@ impl KrlProgram {
             return None;
         }
         match c.int_data[REQUEST_INDEX] {
+            REQUEST_START if self.monitor_only => {
+                self.last_id = id;
+                self.reason = DropReason::StrategyNotSupported.code();
+                Some(KrlEvent::Dropped(DropReason::StrategyNotSupported))
+            }
             REQUEST_START if self.state == FriState::Monitor && id == self.ignored_id => None,
             REQUEST_START if self.state == FriState::Monitor && self.starts_to_ignore > 0 => {
                 // Missed: no acknowledgement, no start; the same id stays missed.

@@ -274,3 +274,24 @@ fn close_ends_program() {
     p.write_status(&mut words);
     assert_eq!(words[15], 30);
 }
+
+#[test]
+fn a_monitor_only_program_refuses_every_start_with_reason_7_and_keeps_it_after_a_restart() {
+    let q = JointVector::from_element(0.3);
+    let mut p = KrlProgram::monitor_only(&ControllerSpec::default(), T);
+    let start = request(&q, FLAGS_POSITION, REQUEST_START, 10, 1);
+    assert_eq!(
+        p.step(Some(&start), Quality::Perfect, &q),
+        Some(KrlEvent::Dropped(DropReason::StrategyNotSupported))
+    );
+    let mut words = [0; 16];
+    p.write_status(&mut words);
+    assert_eq!((words[15], words[13], words[12]), (10, 1, 7));
+    p.restart();
+    let again = request(&q, FLAGS_POSITION, REQUEST_START, 10, 2);
+    assert_eq!(
+        p.step(Some(&again), Quality::Perfect, &q),
+        Some(KrlEvent::Dropped(DropReason::StrategyNotSupported))
+    );
+    assert_eq!(p.state(), FriState::Monitor);
+}

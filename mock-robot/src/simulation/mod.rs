@@ -27,6 +27,7 @@ use fri::wire::{
 };
 
 use crate::config::{PayloadAction, SimulationConfig};
+use crate::controller::{Controller, ControllerEvent, EventKind, EventQueue};
 use crate::error::SimError;
 use crate::faults::FaultCounters;
 use crate::joints::JOINTS;
@@ -73,6 +74,7 @@ pub struct Simulation {
     fri_previous: JointVector,
     last_answer: Option<CommandView>,
     last_event: Option<KrlEvent>,
+    events: EventQueue,
     // Timeline.
     time_s: f64,
     cycle: u64,
@@ -116,6 +118,7 @@ impl Simulation {
             fri_previous: q,
             last_answer: None,
             last_event: None,
+            events: EventQueue::new(),
             time_s: 0.0,
             cycle: 0,
             mirrored: q,
@@ -203,8 +206,9 @@ impl Simulation {
         let event = self
             .krl
             .step(view.as_ref(), self.link.quality(), &self.mirrored);
-        if event.is_some() {
+        if let Some(e) = event {
             self.last_event = event;
+            self.report(e, was_command);
         }
         self.on_krl_transition(was_command);
         if let Some(c) = &view
@@ -218,6 +222,13 @@ impl Simulation {
         self.sensors.advance(self.cycle_s);
         self.build_measurement();
         &self.measurement
+    }
+
+    /// The oldest change of the FRI state not yet taken (entries, stops, drops and refusals
+    /// with their reason, restarts, close), if any; at most
+    /// [`EVENT_CAPACITY`](crate::controller::EVENT_CAPACITY) are kept.
+    pub fn poll_event(&mut self) -> Option<ControllerEvent> {
+        self.events.pop()
     }
 
     /// Whether the scenario has ended (duration reached or the KRL program closed FRI).
@@ -308,6 +319,7 @@ impl Simulation {
                     let was_command = self.krl.state() == FriState::Command;
                     if let Some(e) = self.krl.operator_stop() {
                         self.last_event = Some(e);
+                        self.report(e, was_command);
                     }
                     self.on_krl_transition(was_command);
                 }
@@ -315,6 +327,28 @@ impl Simulation {
                     self.arm
                         .set_payload_attached(action == PayloadAction::Attach);
                 }
+            }
+        }
+    }
+
+    /// Queues what the KRL program's `event` means, stamped with the first measurement that
+    /// shows it; `was_command` tells a drop from a refused start.
+    fn report(&mut self, event: KrlEvent, was_command: bool) {
+        let time_s = (self.cycle + 1) as f64 * self.cycle_s;
+        let mut push = |kind| self.events.push(ControllerEvent { time_s, kind });
+        match event {
+            KrlEvent::EnteredCommand(strategy) => push(EventKind::CommandEntered(strategy)),
+            KrlEvent::Stopped => push(EventKind::CommandStopped),
+            KrlEvent::Dropped(reason) if was_command => push(EventKind::CommandDropped(reason)),
+            KrlEvent::Dropped(reason) => push(EventKind::StartRefused {
+                reason,
+                monitor_only: false,
+            }),
+            KrlEvent::Closed => {
+                if was_command {
+                    push(EventKind::CommandStopped);
+                }
+                push(EventKind::Closed);
             }
         }
     }
@@ -438,6 +472,40 @@ impl Simulation {
         m.krl = krl;
         m.interface.state = InterfaceState::from_raw(state.wire_value());
         m.robot.control = ControlStrategy::from_raw(strategy.fri_control());
+    }
+}
+
+impl Controller for Simulation {
+    fn measurement(&self) -> &Measurement {
+        Simulation::measurement(self)
+    }
+
+    fn submit_datagram(&mut self, bytes: &[u8], latency_s: f64) {
+        Simulation::submit_datagram(self, bytes, latency_s);
+    }
+
+    fn advance(&mut self) -> &Measurement {
+        Simulation::advance(self)
+    }
+
+    fn is_finished(&self) -> bool {
+        Simulation::is_finished(self)
+    }
+
+    fn cycle_s(&self) -> f64 {
+        Simulation::cycle_s(self)
+    }
+
+    fn time_s(&self) -> f64 {
+        Simulation::time_s(self)
+    }
+
+    fn poll_event(&mut self) -> Option<ControllerEvent> {
+        Simulation::poll_event(self)
+    }
+
+    fn simulation(&self) -> Option<&Simulation> {
+        Some(self)
     }
 }
 

@@ -49,7 +49,8 @@ pub enum EventKind {
         /// The controller is monitor-only.
         monitor_only: bool,
     },
-    /// The controller restarted; `left_command` when it was in command mode.
+    /// The controller restarted; `left_command` when it was in command mode (then the restarted
+    /// KRL program reports reason 8, operator or KRL stop).
     Restarted {
         /// Command mode ended with the restart.
         left_command: bool,
@@ -74,6 +75,7 @@ impl ControllerEvent {
             EventKind::CommandDropped(reason) | EventKind::StartRefused { reason, .. } => {
                 Some(reason)
             }
+            EventKind::Restarted { left_command: true } => Some(DropReason::OperatorStop),
             _ => None,
         }
     }
@@ -108,9 +110,12 @@ impl fmt::Display for ControllerEvent {
                 reason.code(),
                 reason.text()
             ),
-            EventKind::Restarted { left_command: true } => {
-                write!(f, "controller restarted; command mode left")
-            }
+            EventKind::Restarted { left_command: true } => write!(
+                f,
+                "controller restarted; command mode left: reason {} ({})",
+                DropReason::OperatorStop.code(),
+                DropReason::OperatorStop.text()
+            ),
             EventKind::Restarted { .. } => write!(f, "controller restarted"),
             EventKind::Closed => write!(f, "FRI closed on request; KRL program ended"),
         }

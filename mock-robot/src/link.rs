@@ -121,9 +121,13 @@ impl FriLink {
         answer
     }
 
-    /// Controller restart: the sequence counter and the statistics start over.
+    /// Controller restart: the sequence counter and the statistics start over, and the quality
+    /// with them (the first measurement after the restart reports both fresh).
     pub(crate) fn restart(&mut self) {
         self.window = StatisticsWindow::new();
+        self.quality = self
+            .thresholds
+            .classify(&self.window.statistics(), self.cycle_s);
         self.send_seq = 0;
         self.counters.restarts += 1;
     }

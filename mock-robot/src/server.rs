@@ -7,7 +7,9 @@
 //!   or after `answer_timeout` (counted as a miss). Latency counts as zero, so runs are
 //!   deterministic given the remote's answers, and faster than real time.
 //!
-//! As on the real controller, the simulation sends first and talks to one remote (`client`).
+//! As on the real controller, the simulation sends first and talks to one remote (`client`): a
+//! KRC talks to the one `FRIHOST` of its configuration, so datagrams from any other host are
+//! ignored and counted (`RunSummary::foreign_datagrams`).
 //! Any [`Controller`] runs here: the simulation, or a replayed log ([`crate::replay::Replay`]).
 //! Changes of the controller's FRI state are logged as they happen (target
 //! `mock_robot::controller`, INFO).
@@ -100,6 +102,8 @@ pub struct RunSummary {
     pub max_lateness_s: f64,
     /// Real time: mean |actual − scheduled| send time, s.
     pub mean_send_jitter_s: f64,
+    /// Datagrams from hosts other than the configured remote's (ignored).
+    pub foreign_datagrams: u64,
 }
 
 impl RunSummary {
@@ -123,6 +127,8 @@ pub struct RunCounters {
     pub cycles: AtomicU64,
     /// Cycles whose measurement was answered in time (before the next one was due).
     pub answered: AtomicU64,
+    /// Datagrams from hosts other than the configured remote's (ignored).
+    pub foreign: AtomicU64,
     latencies: Mutex<Vec<f64>>,
 }
 
@@ -131,6 +137,7 @@ impl Default for RunCounters {
         Self {
             cycles: AtomicU64::new(0),
             answered: AtomicU64::new(0),
+            foreign: AtomicU64::new(0),
             // Reserved up front: recording a round trip never allocates in the loop.
             latencies: Mutex::new(Vec::with_capacity(MAX_LATENCIES)),
         }
@@ -187,8 +194,13 @@ fn wait_readable(socket: &UdpSocket, timeout: Duration) -> bool {
     ready > 0 && fd.revents & libc::POLLIN != 0
 }
 
-/// Receives one datagram into `buf` before `deadline`; returns its length and arrival time.
-fn recv_until(socket: &UdpSocket, buf: &mut [u8], deadline: Instant) -> Option<(usize, Instant)> {
+/// Receives one datagram into `buf` before `deadline`; returns its length, arrival time and
+/// source.
+fn recv_until(
+    socket: &UdpSocket,
+    buf: &mut [u8],
+    deadline: Instant,
+) -> Option<(usize, Instant, SocketAddr)> {
     loop {
         let now = Instant::now();
         if now >= deadline {
@@ -198,7 +210,7 @@ fn recv_until(socket: &UdpSocket, buf: &mut [u8], deadline: Instant) -> Option<(
             continue;
         }
         match socket.recv_from(buf) {
-            Ok((n, _)) => return Some((n, Instant::now())),
+            Ok((n, from)) => return Some((n, Instant::now(), from)),
             // ICMP port unreachable from an earlier send (remote not up yet), or a spurious
             // wake-up: keep waiting.
             Err(e)
@@ -279,7 +291,10 @@ pub fn run<C: Controller>(
                 // When this process was late to send (a non-real-time host), the remote still
                 // gets at least half a cycle to answer: misses should be the remote's.
                 let deadline = (t0 + cycle * (k + 1)).max(sent_at + cycle / 2);
-                while let Some((n, at)) = recv_until(socket, &mut buf, deadline) {
+                while let Some((n, at, from)) = recv_until(socket, &mut buf, deadline) {
+                    if foreign(from, config, &mut summary, counters) {
+                        continue;
+                    }
                     let latency_s = (at - sent_at).as_secs_f64();
                     if answers(&buf[..n], msr_seq) {
                         counters.answered(latency_s);
@@ -290,7 +305,10 @@ pub fn run<C: Controller>(
             TimingMode::Lockstep { answer_timeout } => {
                 let deadline = sent_at + answer_timeout;
                 if sent {
-                    while let Some((n, _)) = recv_until(socket, &mut buf, deadline) {
+                    while let Some((n, _, from)) = recv_until(socket, &mut buf, deadline) {
+                        if foreign(from, config, &mut summary, counters) {
+                            continue;
+                        }
                         sim.submit_datagram(&buf[..n], 0.0);
                         if answers(&buf[..n], msr_seq) {
                             counters.answered(0.0);
@@ -320,6 +338,22 @@ pub fn run<C: Controller>(
         summary.mean_send_jitter_s = jitter_sum / summary.cycles as f64;
     }
     Ok(summary)
+}
+
+/// Whether `from` is another host than the configured remote's; such a datagram is counted and
+/// ignored.
+fn foreign(
+    from: SocketAddr,
+    config: &ServerConfig,
+    summary: &mut RunSummary,
+    counters: &RunCounters,
+) -> bool {
+    let foreign = from.ip() != config.client.ip();
+    if foreign {
+        summary.foreign_datagrams += 1;
+        counters.foreign.fetch_add(1, Ordering::Relaxed);
+    }
+    foreign
 }
 
 /// Whether `datagram` is a command answering measurement `msr_seq`.
@@ -389,8 +423,12 @@ pub fn spawn<C: Controller + Send + 'static>(
     let thread = std::thread::Builder::new()
         .name("mock-robot".into())
         .spawn(move || {
-            if config.mode == TimingMode::RealTime {
-                realtime_priority();
+            if config.mode == TimingMode::RealTime
+                && let Err(e) = realtime_priority()
+            {
+                tracing::debug!(
+                    "mock controller: SCHED_FIFO not permitted ({e}); timing may suffer"
+                );
             }
             let summary = run(&mut sim, &socket, &config, &thread_stop, &thread_counters)?;
             Ok((sim, summary))
@@ -403,16 +441,21 @@ pub fn spawn<C: Controller + Send + 'static>(
     })
 }
 
-/// Best-effort SCHED_FIFO for a real-time run: a real controller is not preempted by the
-/// remote's host, so neither should the simulated one be (its delays would count as misses).
-fn realtime_priority() {
-    let param = libc::sched_param { sched_priority: 80 };
+/// SCHED_FIFO priority of a real-time controller thread.
+pub const REALTIME_PRIORITY: i32 = 80;
+
+/// Puts the calling thread under SCHED_FIFO at [`REALTIME_PRIORITY`], for a real-time run: a
+/// real controller is not preempted by the remote's host, so neither should the simulated one
+/// be (its delays would count as misses). Fails without CAP_SYS_NICE or an rtprio limit.
+pub fn realtime_priority() -> std::io::Result<()> {
+    let param = libc::sched_param {
+        sched_priority: REALTIME_PRIORITY,
+    };
     // SAFETY: pthread_self() is valid for the calling thread; `param` outlives the call.
     let rc = unsafe { libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param) };
-    if rc != 0 {
-        tracing::debug!(
-            rc,
-            "mock controller: SCHED_FIFO not permitted; timing may suffer"
-        );
+    if rc == 0 {
+        Ok(())
+    } else {
+        Err(std::io::Error::from_raw_os_error(rc))
     }
 }

@@ -169,3 +169,117 @@ fn a_replay_takes_no_scenario_and_writes_no_truth_log() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("cannot be used with"), "{stderr}");
 }
+
+/// Runs the binary in lockstep against a session client; `script(cycle, session, client_on)`
+/// may make requests or silence the client. Returns the binary's log (stderr).
+fn run_lockstep(
+    extra: &[&str],
+    cycles: u64,
+    mut script: impl FnMut(u64, &mut Session, &mut bool),
+) -> String {
+    let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
+    socket
+        .set_read_timeout(Some(Duration::from_millis(200)))
+        .unwrap();
+    let duration = format!("{}", cycles as f64 * 0.001);
+    let child = Process::new(env!("CARGO_BIN_EXE_mock-robot"))
+        .args(["--client", &socket.local_addr().unwrap().to_string()])
+        .args([
+            "--bind",
+            "127.0.0.1:0",
+            "--seed",
+            "11",
+            "--duration",
+            &duration,
+        ])
+        .args(extra)
+        .env("RUST_LOG", "info")
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut session = Session::new(SessionConfig::default());
+    let (mut buf, mut out) = ([0u8; 2048], [0u8; CMD_LEN]);
+    let mut received = 0u64;
+    let mut answering = true;
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while Instant::now() < deadline && received < cycles {
+        if let Ok((n, from)) = socket.recv_from(&mut buf) {
+            script(received, &mut session, &mut answering);
+            received += 1;
+            let step = session.step(
+                &buf[..n],
+                from,
+                Instant::now(),
+                &DesiredCommand::default(),
+                &mut out,
+            );
+            if let (true, Ok(info)) = (answering, step) {
+                socket.send_to(&out, info.destination).unwrap();
+            }
+        }
+    }
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert!(output.status.success(), "{stderr}");
+    stderr
+}
+
+#[test]
+fn mode_changes_and_drops_are_printed_and_the_last_drop_is_kept_in_the_summary() {
+    use fri::handshake::{KrlStrategy, RequestKind};
+    let stderr = run_lockstep(
+        &["--lockstep", "--lockstep-timeout-ms", "5"],
+        1500,
+        |k, s, on| {
+            match k {
+                200 | 700 => {
+                    s.request(RequestKind::StartCommandMode, KrlStrategy::JointPosition);
+                }
+                // Silent for 20 cycles in command mode: the controller drops with reason 2.
+                500 => *on = false,
+                520 => *on = true,
+                1000 => {
+                    s.request(RequestKind::StopCommandMode, KrlStrategy::JointPosition);
+                }
+                _ => {}
+            }
+        },
+    );
+    let entered = stderr
+        .matches("command mode entered (joint position)")
+        .count();
+    assert_eq!(entered, 2, "{stderr}");
+    assert!(
+        stderr.contains("command mode dropped: reason 2 (answers missed)"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("command mode left on request (reason 0)"),
+        "{stderr}"
+    );
+    // The summary keeps the drop, although the clean stop came later.
+    let summary = stderr
+        .lines()
+        .find(|l| l.contains("mock robot finished"))
+        .unwrap();
+    assert!(summary.contains("last_drop_reason=2"), "{summary}");
+    assert!(
+        summary.contains("command mode dropped: reason 2 (answers missed)"),
+        "{summary}"
+    );
+}
+
+#[test]
+fn real_time_asks_for_sched_fifo_and_says_so_either_way() {
+    // What this host permits, asked the same way from a thread of the test.
+    let permitted = std::thread::spawn(|| mock_robot::server::realtime_priority().is_ok())
+        .join()
+        .unwrap();
+    let stderr = run_lockstep(&["--realtime"], 100, |_, _, _| {});
+    let granted = stderr.contains("real-time priority: SCHED_FIFO 80");
+    let refused = stderr.contains("note: real-time priority (SCHED_FIFO 80) not permitted");
+    assert_eq!((granted, refused), (permitted, !permitted), "{stderr}");
+    // Lockstep does not ask.
+    let stderr = run_lockstep(&["--lockstep"], 100, |_, _, _| {});
+    assert!(!stderr.contains("real-time priority"), "{stderr}");
+}

@@ -148,3 +148,66 @@ fn realtime_mode_paces_cycles_and_counts_silence_as_misses() {
     assert!(sim.receive_counters().answers > 0);
     assert!(summary.wall_time_s > 0.0);
 }
+
+#[test]
+fn datagrams_from_another_host_are_ignored_and_counted() {
+    use mock_robot::testkit::manual_command;
+    let socket = client_socket();
+    // Another host on the loopback network (127.0.0.0/8 is all local on Linux).
+    let foreign = UdpSocket::bind("127.0.0.2:0").unwrap();
+    let config = ServerConfig {
+        bind: "127.0.0.1:0".parse().unwrap(),
+        client: socket.local_addr().unwrap(),
+        mode: TimingMode::Lockstep {
+            answer_timeout: Duration::from_millis(500),
+        },
+        max_cycles: Some(400),
+        truth_log: None,
+    };
+    let handle = mock_robot::spawn(
+        Simulation::new(SimulationConfig::default()).unwrap(),
+        config,
+    )
+    .unwrap();
+    let mut session = Session::new(SessionConfig::default());
+    let mut buf = [0u8; 2048];
+    let mut out = [0u8; CMD_LEN];
+    let mut sent = 0u64;
+    for cycle in 0..400 {
+        let (n, from) = socket.recv_from(&mut buf).unwrap();
+        let info = session
+            .step(
+                &buf[..n],
+                from,
+                Instant::now(),
+                &DesiredCommand::default(),
+                &mut out,
+            )
+            .unwrap();
+        let msr = *session.last_measurement().unwrap();
+        // Never acknowledged, never acted on: the foreign start request with id 77.
+        assert_ne!(
+            HandshakeStatus::read_from_measurement(&msr).acknowledged_id,
+            77
+        );
+        assert_eq!(msr.interface.state, InterfaceState::Monitor);
+        if (150..250).contains(&cycle) {
+            // A well-formed answer to this very measurement, with a start request, first.
+            let cmd = manual_command(&msr, 5000 + cycle as u16, 0x0001, Some((10, 10, 77)));
+            let mut bytes = [0u8; CMD_LEN];
+            cmd.emit(&mut bytes).unwrap();
+            foreign.send_to(&bytes, handle.local_addr()).unwrap();
+            sent += 1;
+        }
+        socket.send_to(&out, info.destination).unwrap();
+    }
+    let (sim, summary) = handle.join().unwrap();
+    assert_eq!(summary.foreign_datagrams, sent);
+    // Only the remote's own answers count: one per cycle, none stale or malformed.
+    let counters = sim.receive_counters();
+    assert_eq!(
+        (counters.answers, counters.stale, counters.malformed),
+        (400, 0, 0)
+    );
+    assert_eq!(sim.fri_state(), FriState::Monitor);
+}

@@ -162,6 +162,25 @@ fn main() -> Result<()> {
     }
 }
 
+/// Real time: the controller thread (this one) under SCHED_FIFO when permitted, else a note.
+fn realtime_priority(mode: TimingMode) {
+    if mode != TimingMode::RealTime {
+        return;
+    }
+    match server::realtime_priority() {
+        Ok(()) => tracing::info!(
+            "real-time priority: SCHED_FIFO {}",
+            server::REALTIME_PRIORITY
+        ),
+        Err(e) => tracing::warn!(
+            "note: real-time priority (SCHED_FIFO {}) not permitted ({e}); on a busy host cycles \
+             may start late and count as misses: run with CAP_SYS_NICE or an rtprio limit \
+             (limits.conf)",
+            server::REALTIME_PRIORITY
+        ),
+    }
+}
+
 fn bind(args: &Args) -> Result<std::net::UdpSocket> {
     std::net::UdpSocket::bind(args.bind).with_context(|| format!("cannot bind {}", args.bind))
 }
@@ -181,6 +200,7 @@ fn simulate(args: &Args, server_config: &ServerConfig) -> Result<()> {
         "mock robot running"
     );
     install_signal_handlers();
+    realtime_priority(server_config.mode);
     let summary = server::run(
         &mut sim,
         &socket,
@@ -191,6 +211,10 @@ fn simulate(args: &Args, server_config: &ServerConfig) -> Result<()> {
     .context("controller loop failed")?;
     let stats = sim.statistics();
     let counters = sim.receive_counters();
+    // The last drop as it happened, not the reason the wire reports now (0 after a clean stop).
+    let last_drop = sim.last_drop();
+    let last_drop_reason = last_drop.and_then(|e| e.reason()).map_or(0, |r| r.code());
+    let last_drop = last_drop.map_or_else(|| "none".to_owned(), |e| e.to_string());
     tracing::info!(
         cycles = summary.cycles,
         sim_time_s = summary.sim_time_s,
@@ -202,9 +226,11 @@ fn simulate(args: &Args, server_config: &ServerConfig) -> Result<()> {
         missed = counters.missed_cycles,
         malformed = counters.malformed,
         stale = counters.stale,
+        foreign = summary.foreign_datagrams,
         answer_rate = stats.answer_rate,
         state = ?sim.fri_state(),
-        last_drop_reason = sim.drop_reason_code(),
+        last_drop_reason,
+        last_drop,
         "mock robot finished"
     );
     Ok(())
@@ -232,6 +258,7 @@ fn replay(path: &std::path::Path, args: &Args, server_config: &ServerConfig) -> 
         "replaying a recorded log as the controller (monitor mode only; {derivatives})"
     );
     install_signal_handlers();
+    realtime_priority(server_config.mode);
     let summary: RunSummary = server::run(
         &mut replay,
         &socket,
@@ -260,6 +287,7 @@ fn replay(path: &std::path::Path, args: &Args, server_config: &ServerConfig) -> 
         missed = counters.missed_cycles,
         malformed = counters.malformed,
         stale = counters.stale,
+        foreign = summary.foreign_datagrams,
         last_refusal_reason = replay.drop_reason_code(),
         "replay finished"
     );

@@ -90,6 +90,9 @@ pub struct KrlProgram {
     ignored_id: i32,
     /// Refuses every start (a replayed recording cannot follow set-points).
     monitor_only: bool,
+    /// The request id found in the exchange block at a restart: the previous program's request,
+    /// neither acted on nor acknowledged.
+    stale_id: Option<i32>,
 }
 
 impl KrlProgram {
@@ -113,6 +116,7 @@ impl KrlProgram {
             starts_to_ignore: spec.ignored_start_requests,
             ignored_id: 0,
             monitor_only: false,
+            stale_id: None,
         }
     }
 
@@ -125,12 +129,25 @@ impl KrlProgram {
         }
     }
 
-    /// Restarts the program (controller restart): back to freshly opened monitor mode.
-    pub fn restart(&mut self) {
+    /// Restarts the program (controller restart): back to freshly opened monitor mode. A program
+    /// that starts while FRI is still in command mode calls friStop and reports reason 8
+    /// (krl/FRI_HANDSHAKE.src); the drop is returned.
+    pub fn restart(&mut self) -> Option<KrlEvent> {
+        let was_command = self.state == FriState::Command;
         *self = Self {
             monitor_only: self.monitor_only,
             ..Self::new(&self.spec, self.cycle_s)
         };
+        was_command.then(|| {
+            self.reason = DropReason::OperatorStop.code();
+            KrlEvent::Dropped(DropReason::OperatorStop)
+        })
+    }
+
+    /// Takes request `id`, in the exchange block when the program (re)started, as the previous
+    /// program's: it is neither acted on nor acknowledged; the remote must send a new request.
+    pub fn ignore_request(&mut self, id: i32) {
+        self.stale_id = Some(id);
     }
 
     /// FRI state.
@@ -270,7 +287,7 @@ impl KrlProgram {
         }
         let c = answer?;
         let id = c.int_data[REQUEST_ID_INDEX];
-        if id == self.last_id {
+        if id == self.last_id || self.stale_id == Some(id) {
             return None;
         }
         match c.int_data[REQUEST_INDEX] {

@@ -31,7 +31,7 @@ use crate::controller::{Controller, ControllerEvent, EventKind, EventQueue};
 use crate::error::SimError;
 use crate::faults::FaultCounters;
 use crate::joints::JOINTS;
-use crate::krl::{CommandView, FriState, KrlEvent, KrlProgram, Strategy};
+use crate::krl::{CommandView, FriState, KrlEvent, KrlProgram, REQUEST_ID_INDEX, Strategy};
 use crate::link::FriLink;
 use crate::models::perturbed_model;
 use crate::motion::{MotionPlayer, SetPoint};
@@ -75,6 +75,7 @@ pub struct Simulation {
     last_answer: Option<CommandView>,
     last_event: Option<KrlEvent>,
     events: EventQueue,
+    last_drop: Option<ControllerEvent>,
     // Timeline.
     time_s: f64,
     cycle: u64,
@@ -119,6 +120,7 @@ impl Simulation {
             last_answer: None,
             last_event: None,
             events: EventQueue::new(),
+            last_drop: None,
             time_s: 0.0,
             cycle: 0,
             mirrored: q,
@@ -198,10 +200,10 @@ impl Simulation {
     /// Runs one cycle with the datagrams submitted so far and returns the next measurement.
     pub fn advance(&mut self) -> &Measurement {
         let view = self.link.receive();
-        self.apply_timeline();
         if let Some(v) = &view {
             self.last_answer = Some(*v);
         }
+        self.apply_timeline();
         let was_command = self.krl.state() == FriState::Command;
         let event = self
             .krl
@@ -229,6 +231,12 @@ impl Simulation {
     /// [`EVENT_CAPACITY`](crate::controller::EVENT_CAPACITY) are kept.
     pub fn poll_event(&mut self) -> Option<ControllerEvent> {
         self.events.pop()
+    }
+
+    /// The last drop from command mode or refused start (with its reason and time), kept when a
+    /// later clean stop or entry resets the reason the KRL program reports.
+    pub fn last_drop(&self) -> Option<ControllerEvent> {
+        self.last_drop
     }
 
     /// Whether the scenario has ended (duration reached or the KRL program closed FRI).
@@ -334,8 +342,7 @@ impl Simulation {
     /// Queues what the KRL program's `event` means, stamped with the first measurement that
     /// shows it; `was_command` tells a drop from a refused start.
     fn report(&mut self, event: KrlEvent, was_command: bool) {
-        let time_s = (self.cycle + 1) as f64 * self.cycle_s;
-        let mut push = |kind| self.events.push(ControllerEvent { time_s, kind });
+        let mut push = |kind| self.push_event(kind);
         match event {
             KrlEvent::EnteredCommand(strategy) => push(EventKind::CommandEntered(strategy)),
             KrlEvent::Stopped => push(EventKind::CommandStopped),
@@ -353,8 +360,22 @@ impl Simulation {
         }
     }
 
+    /// Queues `kind`, stamped with the first measurement that shows it; a drop or refusal is
+    /// also kept as the last drop.
+    fn push_event(&mut self, kind: EventKind) {
+        let event = ControllerEvent {
+            time_s: (self.cycle + 1) as f64 * self.cycle_s,
+            kind,
+        };
+        if event.reason().is_some() {
+            self.last_drop = Some(event);
+        }
+        self.events.push(event);
+    }
+
     /// Controller restart: sequence counter, statistics and KRL program start over; the arm
-    /// holds where it is commanded.
+    /// holds where it is commanded. The restarted program ignores the request in effect before
+    /// the restart (the last answer's), and reports leaving command mode with reason 8.
     fn restart_controller(&mut self) {
         let was_command = self.krl.state() == FriState::Command;
         let hold = if was_command {
@@ -362,8 +383,16 @@ impl Simulation {
         } else {
             self.krl_cmd_pos
         };
-        self.krl.restart();
+        if let Some(e) = self.krl.restart() {
+            self.last_event = Some(e);
+        }
+        if let Some(c) = &self.last_answer {
+            self.krl.ignore_request(c.int_data[REQUEST_ID_INDEX]);
+        }
         self.link.restart();
+        self.push_event(EventKind::Restarted {
+            left_command: was_command,
+        });
         self.krl_cmd_pos = hold;
         self.fri_previous = hold;
         if was_command {

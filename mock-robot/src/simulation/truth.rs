@@ -5,6 +5,7 @@ use dynamics::{InertialParameters, Model};
 
 use super::{ContactState, Simulation};
 use crate::joints::JointVector;
+use crate::krl::FriState;
 
 impl Simulation {
     /// True payload (frame 7) when attached.
@@ -52,11 +53,15 @@ impl Simulation {
         &self.arm.tau_motor
     }
 
-    /// The controller's current joint set-point (what its interpolator follows), rad: the last
-    /// accepted command, extrapolated through bridged misses, or the measured position when the
-    /// controller is not in command mode.
+    /// The controller's current joint set-point (what its joint controllers follow), rad: in
+    /// command mode the last accepted command, extrapolated through bridged misses; otherwise
+    /// the KRL program's (its motion script, or the pose it holds, also after a restart).
     pub fn commanded_setpoint(&self) -> JointVector {
-        *self.krl.fri_setpoint()
+        if self.krl.state() == FriState::Command {
+            *self.krl.fri_setpoint()
+        } else {
+            self.krl_cmd_pos
+        }
     }
 
     /// Current τ_J sensor bias (offset + drift) per joint, Nm.

@@ -9,6 +9,7 @@
 
 pub mod config;
 pub mod contact;
+pub mod control;
 pub mod controller;
 pub mod error;
 pub mod faults;

@@ -238,6 +238,19 @@ pub fn run<C: Controller>(
     stop: &AtomicBool,
     counters: &RunCounters,
 ) -> Result<RunSummary, SimError> {
+    run_with(sim, socket, config, stop, counters, |_| {})
+}
+
+/// [`run`], calling `between(sim)` once per cycle before the controller advances: an operator's
+/// requests are carried out there (the control socket's [`crate::control::ControlPort`]).
+pub fn run_with<C: Controller>(
+    sim: &mut C,
+    socket: &UdpSocket,
+    config: &ServerConfig,
+    stop: &AtomicBool,
+    counters: &RunCounters,
+    mut between: impl FnMut(&mut C),
+) -> Result<RunSummary, SimError> {
     let mut truth = match &config.truth_log {
         Some(_) if sim.simulation().is_none() => {
             return Err(SimError::InvalidConfig(
@@ -318,6 +331,7 @@ pub fn run<C: Controller>(
                 }
             }
         }
+        between(sim);
         let msr = *sim.advance();
         while let Some(event) = sim.poll_event() {
             tracing::info!(target: "mock_robot::controller", "{event}");

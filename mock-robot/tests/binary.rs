@@ -22,6 +22,7 @@ fn binary_runs_scenario_in_lockstep_and_writes_truth() {
         "/scenarios/payload-attach-detach.toml"
     );
     let mut child = Process::new(env!("CARGO_BIN_EXE_mock-robot"))
+        .arg("--no-control-socket")
         .args([
             "--client",
             &socket.local_addr().unwrap().to_string(),
@@ -183,6 +184,7 @@ fn run_lockstep(
         .unwrap();
     let duration = format!("{}", cycles as f64 * 0.001);
     let child = Process::new(env!("CARGO_BIN_EXE_mock-robot"))
+        .arg("--no-control-socket")
         .args(["--client", &socket.local_addr().unwrap().to_string()])
         .args([
             "--bind",

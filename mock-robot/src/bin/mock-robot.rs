@@ -3,6 +3,11 @@
 //! Sends 916-byte measurements to `--client` (default 127.0.0.1:49938, where `fri-monitor` and
 //! the service listen) every cycle and runs until interrupted or until the scenario ends; with
 //! `--replay FILE` it plays a recorded log instead (monitor mode only) and ends with the log.
+//! A simulation takes an operator's requests on its control socket; `mock-robot control …`
+//! sends them.
+
+#[path = "cli/control.rs"]
+mod control_cli;
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -10,15 +15,17 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
-use clap::Parser;
+use clap::{Parser, Subcommand};
 use mock_robot::replay::{Derivatives, Replay};
 use mock_robot::server::{self, DEFAULT_LOCKSTEP_TIMEOUT, RunSummary, ServerConfig, TimingMode};
 use mock_robot::{Controller, Simulation, SimulationConfig};
 
 /// Simulated KUKA KRC2lr controller (FRI 1.x) with LWR 4+ physics, payload and contacts.
 #[derive(Debug, Parser)]
-#[command(version, about)]
+#[command(version, about, args_conflicts_with_subcommands = true)]
 struct Args {
+    #[command(subcommand)]
+    command: Option<Command>,
     /// Address of the FRI remote (client) that receives the measurements.
     #[arg(long, default_value = "127.0.0.1:49938")]
     client: SocketAddr,
@@ -75,6 +82,21 @@ struct Args {
         ]
     )]
     replay: Option<PathBuf>,
+    /// The control socket a simulation listens on for an operator's requests (`mock-robot
+    /// control …`); default $XDG_RUNTIME_DIR/mock-robot/control.sock, else
+    /// /tmp/mock-robot-UID/control.sock. Its directory must be private (0700, yours).
+    #[arg(long, value_name = "PATH", conflicts_with_all = ["no_control_socket", "replay"])]
+    control_socket: Option<PathBuf>,
+    /// Run without a control socket.
+    #[arg(long)]
+    no_control_socket: bool,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Send one request to a running simulator: attach or detach a payload, push a link, drop
+    /// to monitor mode, restart the controller.
+    Control(control_cli::ControlArgs),
 }
 
 static STOP: AtomicBool = AtomicBool::new(false);
@@ -133,6 +155,9 @@ fn build_config(args: &Args) -> Result<SimulationConfig> {
 
 fn main() -> Result<()> {
     let args = Args::parse();
+    if let Some(Command::Control(control)) = &args.command {
+        return control_cli::run(control);
+    }
     tracing_subscriber::fmt()
         .with_writer(std::io::stderr)
         // Colours only for a person at a terminal, not in a file or a pipe.
@@ -181,6 +206,34 @@ fn realtime_priority(mode: TimingMode) {
     }
 }
 
+/// The control socket, unless `--no-control-socket`.
+fn open_control(
+    args: &Args,
+) -> Result<
+    Option<(
+        mock_robot::control::ControlSocket,
+        mock_robot::control::ControlPort,
+    )>,
+> {
+    if args.no_control_socket {
+        return Ok(None);
+    }
+    let path = args
+        .control_socket
+        .clone()
+        .unwrap_or_else(mock_robot::control::default_socket_path);
+    let opened = mock_robot::control::open(&path).with_context(|| {
+        "cannot open the control socket (--control-socket PATH to choose another, \
+         --no-control-socket to run without)"
+    })?;
+    tracing::info!(
+        "control socket {}: `mock-robot control --socket {} attach|detach|push|monitor|restart`",
+        path.display(),
+        path.display()
+    );
+    Ok(Some(opened))
+}
+
 fn bind(args: &Args) -> Result<std::net::UdpSocket> {
     std::net::UdpSocket::bind(args.bind).with_context(|| format!("cannot bind {}", args.bind))
 }
@@ -199,16 +252,24 @@ fn simulate(args: &Args, server_config: &ServerConfig) -> Result<()> {
         end_s = ?sim.end_time_s(),
         "mock robot running"
     );
+    let control = open_control(args)?;
     install_signal_handlers();
     realtime_priority(server_config.mode);
-    let summary = server::run(
+    let port = control.as_ref().map(|(_, port)| port);
+    let summary = server::run_with(
         &mut sim,
         &socket,
         server_config,
         &STOP,
         &server::RunCounters::default(),
+        |sim| match port.and_then(|p| p.serve(sim)) {
+            Some(Ok(applied)) => tracing::info!(target: "mock_robot::operator", "{applied}"),
+            Some(Err(e)) => tracing::warn!(target: "mock_robot::operator", "refused: {e}"),
+            None => {}
+        },
     )
     .context("controller loop failed")?;
+    drop(control);
     let stats = sim.statistics();
     let counters = sim.receive_counters();
     // The last drop as it happened, not the reason the wire reports now (0 after a clean stop).

@@ -15,6 +15,10 @@ use crate::joints::JOINTS;
 use crate::joints::JointVector;
 use crate::models::payload_parameters;
 
+/// Contacts an operator may add while the simulation runs (pushes), on top of the scenario's:
+/// room for them is reserved up front, so a push never allocates in the controller loop.
+pub const MAX_PUSHES: usize = 256;
+
 /// Ground truth of one contact in the current cycle.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactState {
@@ -86,6 +90,15 @@ impl Arm {
                 active: false,
             })
             .collect::<Vec<_>>();
+        let capacity = contacts.len() + MAX_PUSHES;
+        let mut contact_specs = Vec::with_capacity(capacity);
+        contact_specs.extend_from_slice(&config.contacts);
+        let mut contacts_reserved = Vec::with_capacity(capacity);
+        contacts_reserved.extend_from_slice(&contacts);
+        let mut wall_anchor = Vec::with_capacity(capacity);
+        wall_anchor.resize(contacts.len(), Vector3::zeros());
+        let mut wall_anchor_set = Vec::with_capacity(capacity);
+        wall_anchor_set.resize(contacts.len(), false);
         let mut arm = Self {
             data: Data::new(&bare),
             bare,
@@ -94,10 +107,10 @@ impl Arm {
             payload_attached: config.payload.attached_at_start && config.payload.mass_kg > 0.0,
             rotor: rotor_inertia(&config.friction),
             friction: config.friction.clone(),
-            contact_specs: config.contacts.clone(),
-            wall_anchor: vec![Vector3::zeros(); contacts.len()],
-            wall_anchor_set: vec![false; contacts.len()],
-            contacts,
+            contact_specs,
+            wall_anchor,
+            wall_anchor_set,
+            contacts: contacts_reserved,
             q,
             qd: JointVector::zeros(),
             qdd: JointVector::zeros(),
@@ -140,6 +153,36 @@ impl Arm {
     pub(crate) fn set_payload_attached(&mut self, attached: bool) -> bool {
         self.payload_attached = attached && self.payload.mass > 0.0;
         self.payload_attached
+    }
+
+    /// Attaches `payload` (frame 7, checked physical by the caller) in place of any other;
+    /// allocation-free.
+    pub(crate) fn attach_payload(&mut self, payload: &InertialParameters) {
+        self.payload = *payload;
+        self.loaded.load_payload(&self.bare, payload);
+        self.payload_attached = payload.mass > 0.0;
+    }
+
+    /// Adds a contact (validated by the caller) to the scenario's; returns its index, or None
+    /// when [`MAX_PUSHES`] have been added already.
+    pub(crate) fn add_contact(&mut self, spec: &ContactSpec) -> Option<usize> {
+        if self.contact_specs.len() == self.contact_specs.capacity() {
+            return None;
+        }
+        let index = self.contact_specs.len();
+        self.contacts.push(ContactState {
+            index,
+            link: spec.link,
+            point_link_m: spec.point(),
+            point_base_m: Vector3::zeros(),
+            force_n: Vector3::zeros(),
+            onset_s: None,
+            active: false,
+        });
+        self.contact_specs.push(spec.clone());
+        self.wall_anchor.push(Vector3::zeros());
+        self.wall_anchor_set.push(false);
+        Some(index)
     }
 
     /// The payload (frame 7) when attached.

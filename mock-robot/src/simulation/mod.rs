@@ -17,6 +17,7 @@
 
 mod arm;
 mod joint_control;
+mod operator;
 mod timeline;
 mod truth;
 
@@ -41,8 +42,12 @@ use crate::stats::{Quality, Statistics};
 
 pub use crate::link::ReceiveCounters;
 pub use crate::report::REPORTED_TEMPERATURE_C;
-pub use arm::ContactState;
+pub use arm::{ContactState, MAX_PUSHES};
 pub use joint_control::TORQUE_LIMITS_NM;
+pub use operator::{
+    Applied, MAX_PAYLOAD_COM_M, MAX_PAYLOAD_KG, MAX_PUSH_DURATION_S, MAX_PUSH_FORCE_N,
+    OperatorCommand, OperatorError, Outcome,
+};
 
 use arm::Arm;
 use joint_control::JointControl;
@@ -323,20 +328,23 @@ impl Simulation {
         while let Some(event) = self.timeline.next_due(now) {
             match event {
                 Scheduled::Restart => self.restart_controller(),
-                Scheduled::OperatorStop => {
-                    let was_command = self.krl.state() == FriState::Command;
-                    if let Some(e) = self.krl.operator_stop() {
-                        self.last_event = Some(e);
-                        self.report(e, was_command);
-                    }
-                    self.on_krl_transition(was_command);
-                }
+                Scheduled::OperatorStop => self.operator_stop(),
                 Scheduled::Payload(action) => {
                     self.arm
                         .set_payload_attached(action == PayloadAction::Attach);
                 }
             }
         }
+    }
+
+    /// Stop from the pendant: command mode left with reason 8; nothing in monitor mode.
+    fn operator_stop(&mut self) {
+        let was_command = self.krl.state() == FriState::Command;
+        if let Some(e) = self.krl.operator_stop() {
+            self.last_event = Some(e);
+            self.report(e, was_command);
+        }
+        self.on_krl_transition(was_command);
     }
 
     /// Queues what the KRL program's `event` means, stamped with the first measurement that

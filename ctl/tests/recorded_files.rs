@@ -204,9 +204,8 @@ async fn a_recorded_log_feeds_estimate_motion() {
 async fn the_recorded_tare_feeds_offline_calibrate_and_estimate() {
     let dir = tempfile::tempdir().unwrap();
     let h = service(dir.path(), "rectare").await;
-    // Unloaded: a tare that sees a load is refused.
-    let mut sim = SimulationConfig::default();
-    sim.payload.attached_at_start = false;
+    // Unloaded (the simulator's default): a tare that sees a load is refused.
+    let sim = SimulationConfig::default();
     let driver = mock_robot::spawn_new(sim, ServerConfig::loopback(h.fri, lockstep())).unwrap();
     let mut c = h.client().await.unwrap();
     wait_connected(&mut c).await;

@@ -11,7 +11,7 @@
 //! let dir = std::env::temp_dir().join("fri-testkit-doc");
 //! let service = InProcess::start(local_config(&dir, "doc")).await?;
 //! let mode = TimingMode::Lockstep { answer_timeout: std::time::Duration::from_millis(200) };
-//! let robot = mock_robot::spawn_new(SimulationConfig::default(), ServerConfig::loopback(service.fri, mode))?;
+//! let robot = mock_robot::spawn_new(SimulationConfig::loaded(), ServerConfig::loopback(service.fri, mode))?;
 //! let mut client = service.client().await?;
 //! client.call(fri_api::protocol::Command::Status, |_, _| {}).await?;
 //! drop(robot.join());

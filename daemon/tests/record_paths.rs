@@ -50,7 +50,7 @@ async fn start(config: Config) -> Running {
         answer_timeout: Duration::from_millis(200),
     };
     let driver = mock_robot::spawn_new(
-        mock_robot::SimulationConfig::default(),
+        mock_robot::SimulationConfig::loaded(),
         ServerConfig::loopback(service.fri, pacing),
     )
     .unwrap();

@@ -22,7 +22,7 @@ async fn shutdown_during_a_move_answers_the_request_and_leaves_command_mode_by_h
         answer_timeout: Duration::from_millis(200),
     };
     let robot = mock_robot::spawn_new(
-        SimulationConfig::default(),
+        SimulationConfig::loaded(),
         ServerConfig::loopback(service.fri, mode),
     )
     .unwrap();

@@ -39,7 +39,7 @@ fn main() -> anyhow::Result<()> {
     let s = service.clone();
     let server = rt.spawn(async move { s.serve_operator(rx).await });
     let driver = mock_robot::spawn_new(
-        SimulationConfig::default(),
+        SimulationConfig::loaded(),
         ServerConfig::loopback(fri, TimingMode::RealTime),
     )?;
     let started = Instant::now();

@@ -37,7 +37,7 @@ pub fn prepare(config: &mut Config, path: &Path) -> anyhow::Result<()> {
 /// paper's payload) until Ctrl-C or SIGTERM.
 pub async fn serve_until_interrupted(fri: SocketAddr) -> anyhow::Result<()> {
     let robot = mock_robot::spawn_new(
-        SimulationConfig::default(),
+        SimulationConfig::loaded(),
         ServerConfig::loopback(fri, TimingMode::RealTime),
     )
     .context("starting the simulated controller")?;

@@ -257,11 +257,12 @@ pub fn in_monitor(m: &Measurement) -> bool {
     m.interface.state == InterfaceState::Monitor
 }
 
-/// Default simulation with a fixed seed: reproducible sensors, good enough for handshakes.
+/// Default simulation with the paper's payload on the arm and a fixed seed: reproducible
+/// sensors, good enough for handshakes.
 pub fn quiet_config() -> SimulationConfig {
     SimulationConfig {
         seed: 11,
-        ..Default::default()
+        ..SimulationConfig::loaded()
     }
 }
 

@@ -285,3 +285,102 @@ fn real_time_asks_for_sched_fifo_and_says_so_either_way() {
     let stderr = run_lockstep(&["--lockstep"], 100, |_, _, _| {});
     assert!(!stderr.contains("real-time priority"), "{stderr}");
 }
+
+#[test]
+fn mock_robot_control_hands_the_running_simulator_a_payload_and_says_what_it_did() {
+    use std::os::unix::fs::PermissionsExt;
+    let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
+    socket
+        .set_read_timeout(Some(Duration::from_millis(200)))
+        .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let private = dir.path().join("ctl");
+    std::fs::create_dir(&private).unwrap();
+    std::fs::set_permissions(&private, std::fs::Permissions::from_mode(0o700)).unwrap();
+    let control = private.join("control.sock");
+    let truth = dir.path().join("truth.csv");
+    let bin = env!("CARGO_BIN_EXE_mock-robot");
+    let child = Process::new(bin)
+        .args(["--client", &socket.local_addr().unwrap().to_string()])
+        .args(["--bind", "127.0.0.1:0", "--lockstep", "--duration", "1.0"])
+        .arg("--control-socket")
+        .arg(&control)
+        .arg("--truth-log")
+        .arg(&truth)
+        .env("RUST_LOG", "info")
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut session = Session::new(SessionConfig::default());
+    let (mut buf, mut out) = ([0u8; 2048], [0u8; CMD_LEN]);
+    let mut requests = Vec::new();
+    let mut received = 0;
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while Instant::now() < deadline && received < 1000 {
+        let Ok((n, from)) = socket.recv_from(&mut buf) else {
+            continue;
+        };
+        received += 1;
+        if received == 300 {
+            // What a person types: a payload in range, then one out of range.
+            for args in [
+                &["attach", "--mass-kg", "2", "--com-m", "0,0,0.1"][..],
+                &["attach", "--mass-kg", "99", "--com-m", "0,0,0.1"][..],
+            ] {
+                requests.push(
+                    Process::new(bin)
+                        .args(["control", "--socket"])
+                        .arg(&control)
+                        .args(args)
+                        .stdout(std::process::Stdio::piped())
+                        .stderr(std::process::Stdio::piped())
+                        .spawn()
+                        .unwrap(),
+                );
+            }
+        }
+        let step = session.step(
+            &buf[..n],
+            from,
+            Instant::now(),
+            &DesiredCommand::default(),
+            &mut out,
+        );
+        if let Ok(info) = step {
+            socket.send_to(&out, info.destination).unwrap();
+        }
+    }
+    let outputs: Vec<_> = requests
+        .into_iter()
+        .map(|c| c.wait_with_output().unwrap())
+        .collect();
+    let log = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&log.stderr);
+    assert!(log.status.success(), "{stderr}");
+    let ok = String::from_utf8_lossy(&outputs[0].stdout);
+    assert!(outputs[0].status.success(), "{outputs:?}");
+    assert!(
+        ok.trim_end()
+            .ends_with("payload attached: 2.000 kg at (0.000, 0.000, 0.100) m"),
+        "{ok}"
+    );
+    assert_eq!(outputs[1].status.code(), Some(1));
+    let refused = String::from_utf8_lossy(&outputs[1].stderr);
+    assert!(
+        refused.contains("mass_kg: 99 is out of range; a payload weighs more than 0 and at most 14 kg"),
+        "{refused}"
+    );
+    assert!(stderr.contains("payload attached: 2.000 kg"), "{stderr}");
+    // The truth log: unloaded at first, the 2 kg payload from the request on.
+    let text = std::fs::read_to_string(&truth).unwrap();
+    let mut rows = text.lines().skip(1).map(|l| {
+        let f: Vec<&str> = l.split(',').collect();
+        (f[4].to_owned(), f[5].parse::<f64>().unwrap_or(0.0))
+    });
+    assert_eq!(rows.next().unwrap().0, "0");
+    let last = rows.last().unwrap();
+    assert_eq!(last.0, "1");
+    assert!((last.1 - 2.0).abs() < 1e-9, "{last:?}");
+    // The socket is gone with the simulator.
+    assert!(!control.exists());
+}

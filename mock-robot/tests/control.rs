@@ -60,6 +60,15 @@ fn ask(stream: &mut UnixStream, line: &str) -> Reply {
 }
 
 #[test]
+fn the_default_simulation_starts_unloaded() {
+    let sim = Simulation::new(SimulationConfig::default()).unwrap();
+    assert!(sim.true_payload().is_none());
+    // The paper's payload is one call away, as it is one request away on the socket.
+    let sim = Simulation::new(SimulationConfig::loaded()).unwrap();
+    assert!((sim.true_payload().unwrap().mass - 3.028).abs() < 1e-12);
+}
+
+#[test]
 fn an_operator_attaches_detaches_pushes_stops_and_restarts() {
     let dir = tempfile::tempdir().unwrap();
     let path = socket_in(dir.path());

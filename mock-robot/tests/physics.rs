@@ -52,7 +52,7 @@ fn static_torques_show_payload_gravity_within_noise_and_model_bias() {
         let config = SimulationConfig {
             initial_q_deg: *pose,
             seed: 100 + k as u64,
-            ..Default::default()
+            ..SimulationConfig::loaded()
         };
         let offset_sigma = config.sensors.torque_offset_sigma_nm;
         let (mean, est_ext, sim) = static_mean(config, 1000);
@@ -98,6 +98,7 @@ fn ideal_sensors_and_exact_model_reproduce_payload_gravity_exactly() {
         friction: mock_robot::config::FrictionSpec::frictionless(),
         payload: mock_robot::config::PayloadSpec {
             inertia_about_com: Some([[0.0; 3]; 3]),
+            attached_at_start: true,
             ..Default::default()
         },
         initial_q_deg: POSES_DEG[1],
@@ -180,6 +181,8 @@ fn half_sine_contact_enters_as_jacobian_transpose_force() {
 fn arm_settles_at_a_static_pose_after_a_ptp_with_payload() {
     let text = r#"
         initial_q_deg = [0, 30, 0, -60, 0, 60, 0]
+        [payload]
+        attached_at_start = true
         [[motion]]
         kind = "ptp"
         q_deg = [10, 40, -5, -50, 5, 50, 10]

@@ -62,7 +62,7 @@ async fn run(setup: Setup, seconds: u64, round: usize) -> Value {
     let service = fri_service::testkit::InProcess::start(config.clone())
         .await
         .unwrap();
-    let robot = common::robot(mock_robot::SimulationConfig::default(), service.fri, None);
+    let robot = common::robot(mock_robot::SimulationConfig::loaded(), service.fri, None);
     let mut client = common::wait_connected(&service).await;
     let domain = common::domain(10 + round as u16);
     let mut children = Vec::new();

@@ -18,7 +18,7 @@ async fn run(hz: u32, seconds: u64) {
     let service = fri_service::testkit::InProcess::start(config.clone())
         .await
         .unwrap();
-    let robot = common::robot(mock_robot::SimulationConfig::default(), service.fri, None);
+    let robot = common::robot(mock_robot::SimulationConfig::loaded(), service.fri, None);
     let _client = common::wait_connected(&service).await;
     let domain = common::domain(if hz == 1000 { 3 } else { 2 });
     let mut bridge = spawn_bridge(&config, dir.path(), domain, hz);

@@ -124,7 +124,7 @@ async fn cyclone_peer_receives_joint_states_equal_to_the_truth_and_the_applied_p
                 speed_fraction: None,
             },
         ],
-        ..SimulationConfig::default()
+        ..SimulationConfig::loaded()
     };
     let quantum = sim.sensors.encoder_quantum_rad;
     let truth_path = dir.path().join("truth.csv");

@@ -132,7 +132,7 @@ async fn python_mcap_reader_decodes_the_recording_as_the_csv_log_of_the_same_run
                 duration_s: 0.3,
             },
         }],
-        ..SimulationConfig::default()
+        ..SimulationConfig::loaded()
     };
     let payload = (sim.payload.mass_kg, sim.payload.com_m);
     let robot = common::robot(sim, service.fri, None);

@@ -39,7 +39,7 @@ async fn joint_states_and_payload_come_back_after_the_service_restarts() {
     let service = fri_service::testkit::InProcess::start(config.clone())
         .await
         .unwrap();
-    let robot = common::robot(mock_robot::SimulationConfig::default(), service.fri, None);
+    let robot = common::robot(mock_robot::SimulationConfig::loaded(), service.fri, None);
     common::wait_connected(&service).await;
     let bridge = common::Bridge::start(config.clone(), domain, 100);
     // Past 1 s of the first service's time: every older sample has been taken, so a stamp
@@ -57,7 +57,7 @@ async fn joint_states_and_payload_come_back_after_the_service_restarts() {
     let service = fri_service::testkit::InProcess::start(config.clone())
         .await
         .unwrap();
-    let robot = common::robot(mock_robot::SimulationConfig::default(), service.fri, None);
+    let robot = common::robot(mock_robot::SimulationConfig::loaded(), service.fri, None);
     let mut client = common::wait_connected(&service).await;
     apply_payload(&mut client, 0.75, [0.0, 0.0, 0.05]).await;
     // Stamps of the new service start from zero again.
@@ -96,7 +96,7 @@ async fn the_bridge_keeps_publishing_through_a_controller_restart() {
     // The controller restarts (sequence counter reset, statistics reset, back to MON) at 1.5 s.
     let sim = mock_robot::SimulationConfig {
         restarts_s: vec![1.5],
-        ..mock_robot::SimulationConfig::default()
+        ..mock_robot::SimulationConfig::loaded()
     };
     let robot = common::robot(sim, service.fri, None);
     let mut client = common::wait_connected(&service).await;

@@ -38,7 +38,9 @@ struct Args {
     /// Scenario TOML file (see mock-robot/scenarios/).
     #[arg(long)]
     scenario: Option<PathBuf>,
-    /// Payload mass, kg (0 = no payload); overrides the scenario.
+    /// Payload mass, kg (0 = no payload), on the arm from the start unless the scenario
+    /// attaches it later; overrides the scenario. Default: none (attach one while it runs with
+    /// `mock-robot control attach`).
     #[arg(long)]
     payload_mass: Option<f64>,
     /// Payload centre of mass in frame 7, m: X,Y,Z.
@@ -124,8 +126,12 @@ fn build_config(args: &Args) -> Result<SimulationConfig> {
         config.cycle_ms = c;
     }
     if let Some(m) = args.payload_mass {
-        // The attach/detach timeline of the scenario stays as it is.
         config.payload.mass_kg = m;
+        // A mass given here is on the arm from the start, unless the scenario has its own
+        // attach/detach timeline (which then stays as it is).
+        if config.payload.events.is_empty() {
+            config.payload.attached_at_start = m > 0.0;
+        }
     }
     if let Some(c) = &args.payload_com {
         let [x, y, z] = c[..] else {

@@ -95,6 +95,14 @@ impl Default for SimulationConfig {
 }
 
 impl SimulationConfig {
+    /// The default simulation with the paper's payload (3.028 kg at (0, 0, 0.119) m) on the
+    /// arm from the start; the plain default starts unloaded.
+    pub fn loaded() -> Self {
+        let mut config = Self::default();
+        config.payload.attached_at_start = true;
+        config
+    }
+
     /// Parses a scenario from TOML text and validates it.
     pub fn from_toml_str(text: &str) -> Result<Self, SimError> {
         let config: Self = toml::from_str(text)?;

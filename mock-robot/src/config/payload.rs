@@ -15,7 +15,8 @@ pub struct PayloadSpec {
     /// Inertia about the CoM in frame-7 axes, kg·m², row-major 3×3; `None` = a solid cylinder of
     /// radius 0.04 m and length 0.08 m with the given mass, axis along z7.
     pub inertia_about_com: Option<[[f64; 3]; 3]>,
-    /// Whether the payload is attached at t = 0.
+    /// Whether the payload is attached at t = 0 (default false: the simulator starts unloaded,
+    /// and the payload is attached by an event or an operator's request).
     pub attached_at_start: bool,
     /// Attach/detach events.
     pub events: Vec<PayloadEvent>,
@@ -27,7 +28,7 @@ impl Default for PayloadSpec {
             mass_kg: 3.028,
             com_m: [0.0, 0.0, 0.119],
             inertia_about_com: None,
-            attached_at_start: true,
+            attached_at_start: false,
             events: Vec::new(),
         }
     }

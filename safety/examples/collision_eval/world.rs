@@ -103,7 +103,7 @@ impl World {
             seed,
             initial_q_deg: LWR4_PICK_POSE_DEG,
             contacts: contacts.iter().map(|c| contact_spec(c, t_start)).collect(),
-            ..SimulationConfig::default()
+            ..SimulationConfig::loaded()
         };
         let sim = Simulation::new(config).expect("valid mock-robot configuration");
         let msr = *sim.measurement();

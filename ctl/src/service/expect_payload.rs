@@ -10,8 +10,8 @@ use fri_api::results::{DeclaredBy, ExpectPayloadResult, UnknownPayload};
 
 use super::JsonFlag;
 use super::format::{fixed, xyz_mm};
-use fri_api::results::PinnedPayload;
 use super::runner::Operation;
+use fri_api::results::PinnedPayload;
 
 /// Long help of `expect-payload`.
 pub(super) const HELP: &str = "\

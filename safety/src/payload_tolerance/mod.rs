@@ -286,13 +286,16 @@ impl<const N: usize> PayloadTolerance<N> {
     }
 
     /// The service starts moving the arm: the grasp is over. During the grasp window the load
-    /// of the last stretch at rest is pinned now (nothing when no fit at rest exists yet: the
-    /// window's end pins then). A pinned load stays as it is.
+    /// of the last stretch at rest is pinned now if it was steady for the settle time; a load
+    /// still changing (a grasp the move interrupted, the residual still rising) pins nothing:
+    /// the settle watch after the move or the window's end pins then. A pinned load stays.
     pub fn end_grasp(&mut self) {
-        if self.declaration.is_none() || self.pinned.is_some() {
+        let Some(declaration) = self.declaration.filter(|_| self.pinned.is_none()) else {
             return;
-        }
-        if let Some((parameters, information)) = self.settle.last() {
+        };
+        if let Some((parameters, information)) =
+            self.settle.last_settled(declaration.timing.settle_s)
+        {
             self.pinned = Some(PinnedLoad::new(
                 parameters,
                 information,

@@ -196,7 +196,12 @@ impl PinnedLoad {
         for a in 0..k {
             step += self.open[a] * s[a];
         }
-        let plausible = |t: f64| inside(&to_full_coordinates(flange, &(self.parameters + step * t)), bounds);
+        let plausible = |t: f64| {
+            inside(
+                &to_full_coordinates(flange, &(self.parameters + step * t)),
+                bounds,
+            )
+        };
         if plausible(1.0) {
             return self.parameters + step;
         }

@@ -162,6 +162,13 @@ impl SettleTracker {
         self.started.then(|| self.mean())
     }
 
+    /// The last segment at rest if it lasted at least `settle_s` (its load was steady, whether
+    /// or not it differs from the declaration's): its averaged load and what its pose
+    /// determines.
+    pub(crate) fn last_settled(&self, settle_s: f64) -> Option<(Vector4<f64>, Matrix4<f64>)> {
+        (self.started && self.last_s - self.since_s >= settle_s).then(|| self.mean())
+    }
+
     /// Watches the fitted load `load` of this cycle (regressor `y`, weights `weights` = 1/θ²,
     /// thresholds `thresholds`) at controller time `now_s`; returns the load to pin and what
     /// its pose determines once it has settled after a change.
@@ -194,7 +201,11 @@ impl SettleTracker {
         let dt = (now_s - self.last_s).max(0.0);
         self.last_s = now_s;
         let tau = PIN_AVERAGE_SHARE * settle_s;
-        let weight = if tau > 0.0 { 1.0 - (-dt / tau).exp() } else { 1.0 };
+        let weight = if tau > 0.0 {
+            1.0 - (-dt / tau).exp()
+        } else {
+            1.0
+        };
         self.average += (load - self.average) * weight;
         let grasped = deviation(y, &self.reference, &baseline, thresholds) > SETTLE_BAND;
         (grasped && now_s - self.since_s >= settle_s).then(|| self.mean())
@@ -234,8 +245,14 @@ mod tests {
                 }
             }
             let (t, p) = pinned.expect("a grasp settles");
-            assert!(t >= 1.0 + ramp + 0.4 && t < 1.0 + ramp + 0.6, "ramp {ramp}: {t}");
-            assert!(deviation(&y, &p, &full, &th) < SETTLE_BAND, "ramp {ramp}: {p}");
+            assert!(
+                t >= 1.0 + ramp + 0.4 && t < 1.0 + ramp + 0.6,
+                "ramp {ramp}: {t}"
+            );
+            assert!(
+                deviation(&y, &p, &full, &th) < SETTLE_BAND,
+                "ramp {ramp}: {p}"
+            );
         }
         // A push on the empty flange that comes and goes: back at the declaration's load.
         let mut s = SettleTracker::new();

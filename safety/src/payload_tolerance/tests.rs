@@ -110,7 +110,10 @@ fn without_a_grasp_the_window_end_pins_the_load_held_since_the_declaration() {
     for newtons in [15.0, 35.0, -20.0] {
         let (seen, _) = b.cycle(&(payload(3.028) + push_down(newtons)), &V7::zeros());
         let push = b.y * push_down(newtons);
-        assert!((seen + push).amax() < 1e-6, "{newtons} N: {seen:?} vs {push:?}");
+        assert!(
+            (seen + push).amax() < 1e-6,
+            "{newtons} N: {seen:?} vs {push:?}"
+        );
         assert!(seen.amax() > 6.0, "{newtons} N: {seen:?}");
     }
 }

@@ -158,9 +158,7 @@ impl ServiceCore {
         let declaration =
             self.declare_unknown_payload(bounds, defaults.timing(), DeclaredBy::Operator, origin)?;
         let mut updates = self.shared.subscribe();
-        let taken = |view: Option<UnknownPayloadView>| {
-            matches!(view, Some(UnknownPayloadView::Active(s)) if s.declaration == declaration)
-        };
+        let taken = |view: Option<UnknownPayloadView>| matches!(view, Some(UnknownPayloadView::Active(s)) if s.declaration == declaration);
         if !taken(self.shared.unknown_payload()) {
             let _ = tokio::time::timeout(DECLARATION_WAIT, async {
                 loop {

@@ -17,7 +17,7 @@ struct Args {
 
 fn main() -> anyhow::Result<()> {
     let args = Args::parse();
-    fri_service::init_logging("info");
+    fri_service::init_logging(fri_ros2::DEFAULT_LOG_FILTER);
     let config = fri_ros2::BridgeConfig::load(&args.config)
         .with_context(|| format!("loading {}", args.config.display()))?;
     tracing::info!(

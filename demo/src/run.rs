@@ -339,10 +339,7 @@ async fn phases(
             },
             |_, d| {
                 if d["phase"] == "sampled" {
-                    say(
-                        opts,
-                        format!("      pose {}/{} sampled", d["step"], d["of"]),
-                    );
+                    say(opts, sampled_line(&d["step"], &d["of"]));
                 }
             },
         )
@@ -350,7 +347,11 @@ async fn phases(
         .map_err(|e| anyhow::anyhow!("tare failed: {}", e.message))?;
     say(
         opts,
-        format!("      tare stored: {} samples", tare["samples"]),
+        format!(
+            "      tare stored: {} poses and the first again, {} samples",
+            tare["samples"],
+            tare["samples"].as_u64().map_or(0, |n| n + 1)
+        ),
     );
 
     // 2. Estimate.
@@ -391,10 +392,7 @@ async fn phases(
             },
             |_, d| {
                 if d["phase"] == "sampled" {
-                    say(
-                        opts,
-                        format!("      pose {}/{} sampled", d["step"], d["of"]),
-                    );
+                    say(opts, sampled_line(&d["step"], &d["of"]));
                 }
             },
         )
@@ -648,7 +646,7 @@ async fn phases(
         say(
             opts,
             format!(
-                "      {name:38} detections at {} s, {fa} false alarm(s), free-motion peak {pk:.1} Nm",
+                "      {name:38} detections {}, {fa} false alarm(s), free-motion peak {pk:.1} Nm",
                 fmt_times(det)
             ),
         );
@@ -704,14 +702,29 @@ async fn phases(
     })
 }
 
-fn fmt_times(t: &[f64]) -> String {
-    if t.is_empty() {
-        return "(none)".into();
+/// The progress line of a sampled pose: the pattern's poses count to their number, the last
+/// sample is the first pose again (the drift over the procedure).
+fn sampled_line(step: &serde_json::Value, of: &serde_json::Value) -> String {
+    match (step.as_u64(), of.as_u64()) {
+        (Some(k), Some(n)) if k == n && n > 1 => {
+            "      pose 1 sampled again (the drift over the procedure)".to_owned()
+        }
+        (Some(k), Some(n)) => format!("      pose {k}/{} sampled", n.saturating_sub(1).max(1)),
+        _ => format!("      pose {step}/{of} sampled"),
     }
-    t.iter()
+}
+
+/// Detection times as text: "at 1.019, 8.015 s", or "none".
+pub fn fmt_times(t: &[f64]) -> String {
+    if t.is_empty() {
+        return "none".into();
+    }
+    let times = t
+        .iter()
         .map(|x| format!("{x:.3}"))
         .collect::<Vec<_>>()
-        .join(", ")
+        .join(", ");
+    format!("at {times} s")
 }
 
 /// One row of the service's per-cycle log.

@@ -25,8 +25,7 @@ pub use bridge::{BridgeError, run};
 /// warnings, without rustdds's warning for every datagram over 1500 bytes (the bridge's state
 /// messages are larger by design) and ros2-client's for an unset `ROS_DISTRO` (no ROS install
 /// is needed). `RUST_LOG=info` shows everything again.
-pub const DEFAULT_LOG_FILTER: &str =
-    "info,rustdds=warn,rustdds::network::udp_sender=error,ros2_client=warn,ros2_client::distributions=error";
+pub const DEFAULT_LOG_FILTER: &str = "info,rustdds=warn,rustdds::network::udp_sender=error,ros2_client=warn,ros2_client::distributions=error";
 
 #[cfg(test)]
 mod log_filter_tests {

@@ -15,8 +15,8 @@ pub use fri_api::{DEFAULT_SOCKET, JOINTS, stop_socket_beside};
 /// Errors while loading or validating the configuration.
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
-    /// The file could not be read.
-    #[error("cannot read config file {path}: {source}")]
+    /// The file could not be read (the I/O error is the source: a cause chain prints it once).
+    #[error("cannot read config file {path}")]
     Read {
         /// File that failed.
         path: PathBuf,

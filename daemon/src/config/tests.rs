@@ -347,4 +347,15 @@ fn one_threshold_or_gain_sets_every_joint() {
 fn missing_file_is_a_read_error() {
     let err = Config::load(Path::new("/nonexistent/fri.toml")).unwrap_err();
     assert!(matches!(err, ConfigError::Read { .. }));
+    // The cause chain names the I/O error once (it used to be in the message and the source).
+    let chain = format!("{:#}", anyhow::Error::new(err));
+    assert_eq!(
+        chain.matches("No such file or directory").count(),
+        1,
+        "{chain}"
+    );
+    assert!(
+        chain.starts_with("cannot read config file /nonexistent/fri.toml: "),
+        "{chain}"
+    );
 }

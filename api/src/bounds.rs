@@ -198,6 +198,21 @@ pub const UNKNOWN_PAYLOAD_MASS: Range = Range::new(0.01, 7.0, "kg");
 /// `unknown_payload.max_radius_m`), m: from a part in the gripper's fingers to a metre-long tool.
 pub const UNKNOWN_PAYLOAD_RADIUS: Range = Range::new(0.01, 1.0, "m");
 
+/// Grasp window of a payload declared unknown (`unknown_payload.grasp_window_s`), s: the load
+/// may change for this long after the declaration, and a flange contact that a plausible load
+/// explains goes unseen for as long, so it is bounded: at least long enough for a gripper to
+/// close and lift (0.5 s), at most two minutes.
+pub const GRASP_WINDOW_S: Range = Range::new(0.5, 120.0, "s");
+
+/// Time a changed load must stay settled to be pinned before the grasp window ends
+/// (`unknown_payload.settle_s`), s: longer than the residual's transient (a few ms) and a
+/// gripper's ringing, shorter than the window's useful range.
+pub const SETTLE_S: Range = Range::new(0.05, 5.0, "s");
+
+/// Time without an estimate after which the unknown-payload mode ends (`unknown_payload.expire_s`),
+/// s: long enough for a slow ten-pose estimate between refits, at most an hour.
+pub const EXPIRE_S: Range = Range::new(5.0, 3600.0, "s");
+
 /// Pattern increment, degrees: below 1° neighbouring poses are too alike for a well-conditioned
 /// estimate; above 30° the pattern leaves the "around the pick pose" regime of the paper.
 pub const STEP_DEG: Range = Range::new(1.0, 30.0, "deg");

@@ -128,9 +128,18 @@ fn status_connected_and_disconnected() {
         "declared_by": "operator", "origin": {"kind": "operator", "uid": 0, "pid": 17},
         "max_mass": 7.0, "max_radius": 0.3, "samples": 3,
         "mass": 3.03, "com": [0.0, 0.0, 0.119], "consistent": true,
+        "declared_at_s": 12.5, "grasp_window_end_s": 22.5, "expires_at_s": 150.0,
+        "expires_in_s": 120.25,
+        "pinned": {
+            "mass": 3.03, "com": [0.0, 0.0, 0.119], "mass_tolerance": 0.94,
+            "com_tolerance": 0.05, "com_height_open": false, "by": "samples", "samples": 3,
+            "at_s": 29.75,
+        },
     });
     let s: StatusResult = round_trip(grasping);
-    assert_eq!(s.unknown_payload.unwrap().samples, 3);
+    let u = s.unknown_payload.unwrap();
+    assert_eq!(u.samples, 3);
+    assert_eq!(u.pinned.map(|p| p.by), Some(PinnedBy::Samples));
 }
 
 #[test]
@@ -139,6 +148,8 @@ fn expect_payload_results() {
         "declared_by": "estimate-payload", "origin": {"kind": "configuration"},
         "max_mass": 2.0, "max_radius": 0.25, "samples": 0,
         "mass": null, "com": null, "consistent": true,
+        "declared_at_s": null, "grasp_window_end_s": null, "expires_at_s": null,
+        "expires_in_s": null, "pinned": null,
     }}));
     assert_eq!(
         declared.unknown_payload.unwrap().declared_by,

@@ -92,6 +92,7 @@ fn run(limits: (f64, f64, f64), mass: f64, com: [f64; 3], seed: u64) -> anyhow::
     requests.send(CycleRequest::ExpectPayload {
         declaration: 1,
         bounds,
+        timing: safety::GraspTiming::default(),
     })?;
     let mut samples: Vec<LoadSample<7>> = Vec::new();
     let mut data = Data::new(&model);
@@ -215,12 +216,13 @@ fn cost() -> anyhow::Result<Vec<(&'static str, f64)>> {
     let residual = -(y * theta);
     let mut out = Vec::new();
     for (name, hypothesis, moving) in [
-        ("before the first sample, at rest", None, false),
+        ("during the grasp, at rest", None, false),
         ("after samples, at rest", Some(h), false),
         ("after samples, moving (inertia allowance)", Some(h), true),
     ] {
         let mut t = safety::PayloadTolerance::new(&model);
-        t.declare(1, bounds).map_err(|e| anyhow::anyhow!("{e}"))?;
+        t.declare(1, bounds, safety::GraspTiming::default(), 0.0)
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
         if let Some(h) = hypothesis {
             t.set_hypothesis(h);
         }

@@ -47,8 +47,9 @@ fn service_cycle_is_allocation_free() {
     assert!(kit.drain() >= 2000);
 }
 
-/// The same with the payload declared unknown: the plausible fit at the current pose (before any
-/// sample), then the fit over a sample set (after the refit reached the loop).
+/// The same with the payload declared unknown: the plausible fit at the current pose during the
+/// grasp window and the pin at its end, then the refit of a sample set pinned (after it reached
+/// the loop), then a new declaration that expires; each change leaves the loop as an event.
 #[test]
 fn service_cycle_with_the_payload_declared_unknown_is_allocation_free() {
     let mut config = SimulationConfig::default();
@@ -63,9 +64,16 @@ fn service_cycle_with_the_payload_declared_unknown_is_allocation_free() {
         max_mass_kg: 7.0,
         radius_m: 0.3,
     };
+    // The window ends 0.6 s after the declaration: inside the first counted phase.
+    let timing = safety::GraspTiming {
+        grasp_window_s: 0.6,
+        settle_s: 0.5,
+        expire_s: 60.0,
+    };
     assert!(kit.send(CycleRequest::ExpectPayload {
         declaration: 1,
         bounds,
+        timing,
     }));
     for _ in 0..200 {
         kit.prepare();
@@ -88,12 +96,22 @@ fn service_cycle_with_the_payload_declared_unknown_is_allocation_free() {
         &bounds,
     )
     .unwrap();
-    for phase in [None, Some(hypothesis)] {
+    for phase in [None, Some(hypothesis), None] {
         if let Some(h) = phase {
             assert!(kit.send(CycleRequest::PayloadHypothesis(h)));
             kit.prepare();
             assert!(kit.cycle());
             kit.drain();
+        } else if kit.processor().payload_tolerance().pinned().is_some() {
+            // The last phase: declared again, expiring inside the counted cycles.
+            assert!(kit.send(CycleRequest::ExpectPayload {
+                declaration: 2,
+                bounds,
+                timing: safety::GraspTiming {
+                    expire_s: 0.5,
+                    ..timing
+                },
+            }));
         }
         let mut ok = 0;
         let n = alloc_counter::count_allocations(|| {
@@ -112,5 +130,13 @@ fn service_cycle_with_the_payload_declared_unknown_is_allocation_free() {
             phase.map(|h| h.samples)
         );
         kit.drain();
+        // Not vacuous: the window's pin, the samples' pin, the expiry happened in the phase.
+        let tolerance = kit.processor().payload_tolerance();
+        match tolerance.pinned().map(|p| p.source) {
+            Some(safety::PinSource::GraspWindow) => assert!(phase.is_none()),
+            Some(safety::PinSource::Samples(1)) => assert!(phase.is_some()),
+            None => assert_eq!(tolerance.last_end().map(|(d, _)| d), Some(2)),
+            other => panic!("{other:?}"),
+        }
     }
 }

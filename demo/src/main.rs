@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use anyhow::Context as _;
 use clap::{Parser, Subcommand};
 use fri_api::stdio::{Stdout, clap_exit, exit_status};
-use fri_demo::run::{DemoOptions, run as run_demo};
+use fri_demo::run::{DemoOptions, fmt_times, run as run_demo};
 use mock_robot::TimingMode;
 
 /// The FRI service's demonstration against a simulated KUKA LWR 4+: payload estimation from
@@ -98,14 +98,14 @@ fn demo(
     } else {
         writeln!(
             stdout,
-            "done: payload {:.4} kg (truth {:.4} kg, paper {:.3} kg); compensated detections {:?}, \
-             false alarms {} (uncompensated: {:?}, {} false alarms); plots in {}",
+            "done: payload {:.4} kg (truth {:.4} kg, paper {:.3} kg); compensated: detections {}, \
+             {} false alarm(s); uncompensated: detections {}, {} false alarm(s); plots in {}",
             report.payload_estimate.mass,
             report.payload_truth.mass,
             report.payload_paper.mass,
-            report.detections_compensated,
+            fmt_times(&report.detections_compensated),
             report.false_alarms_compensated,
-            report.detections_uncompensated,
+            fmt_times(&report.detections_uncompensated),
             report.false_alarms_uncompensated,
             opts.out_dir.display()
         )?;

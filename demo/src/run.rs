@@ -47,8 +47,9 @@ pub const PAPER_COM: [f64; 3] = [-2.8e-3, 1.1e-2, 0.1283];
 pub const CONTACTS_S: [f64; 3] = [1.0, 8.0, 17.0];
 /// Length of the free-motion segment, s.
 pub const FREE_MOTION_S: f64 = 20.0;
-/// Recording of the contact-free task the thresholds are calibrated on, s.
-const CALIBRATION_RECORD_S: f64 = FREE_MOTION_S + 6.0;
+/// Recorded robot time of the contact-free task the thresholds are calibrated on, s (the
+/// whole motion; the fit needs 20 blocks of 1 s).
+const CALIBRATION_RECORD_S: f64 = FREE_MOTION_S + 1.0;
 /// Detection threshold, Nm (Fig. 6).
 pub const THRESHOLD_NM: f64 = 6.0;
 /// An onset within this time after a contact onset detects it, s.
@@ -338,10 +339,7 @@ async fn phases(
             },
             |_, d| {
                 if d["phase"] == "sampled" {
-                    say(
-                        opts,
-                        format!("      pose {}/{} sampled", d["step"], d["of"]),
-                    );
+                    say(opts, sampled_line(&d["step"], &d["of"]));
                 }
             },
         )
@@ -349,7 +347,11 @@ async fn phases(
         .map_err(|e| anyhow::anyhow!("tare failed: {}", e.message))?;
     say(
         opts,
-        format!("      tare stored: {} samples", tare["samples"]),
+        format!(
+            "      tare stored: {} poses and the first again, {} samples",
+            tare["samples"],
+            tare["samples"].as_u64().map_or(0, |n| n + 1)
+        ),
     );
 
     // 2. Estimate.
@@ -390,10 +392,7 @@ async fn phases(
             },
             |_, d| {
                 if d["phase"] == "sampled" {
-                    say(
-                        opts,
-                        format!("      pose {}/{} sampled", d["step"], d["of"]),
-                    );
+                    say(opts, sampled_line(&d["step"], &d["of"]));
                 }
             },
         )
@@ -647,7 +646,7 @@ async fn phases(
         say(
             opts,
             format!(
-                "      {name:38} detections at {} s, {fa} false alarm(s), free-motion peak {pk:.1} Nm",
+                "      {name:38} detections {}, {fa} false alarm(s), free-motion peak {pk:.1} Nm",
                 fmt_times(det)
             ),
         );
@@ -703,14 +702,29 @@ async fn phases(
     })
 }
 
-fn fmt_times(t: &[f64]) -> String {
-    if t.is_empty() {
-        return "(none)".into();
+/// The progress line of a sampled pose: the pattern's poses count to their number, the last
+/// sample is the first pose again (the drift over the procedure).
+fn sampled_line(step: &serde_json::Value, of: &serde_json::Value) -> String {
+    match (step.as_u64(), of.as_u64()) {
+        (Some(k), Some(n)) if k == n && n > 1 => {
+            "      pose 1 sampled again (the drift over the procedure)".to_owned()
+        }
+        (Some(k), Some(n)) => format!("      pose {k}/{} sampled", n.saturating_sub(1).max(1)),
+        _ => format!("      pose {step}/{of} sampled"),
     }
-    t.iter()
+}
+
+/// Detection times as text: "at 1.019, 8.015 s", or "none".
+pub fn fmt_times(t: &[f64]) -> String {
+    if t.is_empty() {
+        return "none".into();
+    }
+    let times = t
+        .iter()
         .map(|x| format!("{x:.3}"))
         .collect::<Vec<_>>()
-        .join(", ")
+        .join(", ");
+    format!("at {times} s")
 }
 
 /// One row of the service's per-cycle log.
@@ -832,10 +846,10 @@ async fn calibrate_thresholds(
     let before = current_cycle(client).await?;
     let mut task = free_motion(opts.seed.wrapping_add(1));
     task.contacts.clear();
-    // The fit needs 20 one-second blocks after the feature filters settled (0.1 s). A host
-    // that stalls the real-time pair loses samples (each gap the monitor cannot bridge restarts
-    // it): 26 s of recording, the motion and then rest, within the run.
-    task.duration_s = Some(CALIBRATION_RECORD_S + 2.0);
+    // The service counts recorded samples only: the feature filters' settling (0.1 s) at the
+    // start and after each gap the monitor cannot bridge (a host that stalls the real-time
+    // pair) is not recorded. 5 s of rest after the motion cover them.
+    task.duration_s = Some(CALIBRATION_RECORD_S + 5.0);
     let driver = mock_robot::spawn_new(task, ServerConfig::loopback(fri, opts.pacing))?;
     wait_fresh_state(client, before, 50).await?;
     let reply = client

@@ -13,6 +13,11 @@ pub const SIGNIFICANCE: f64 = 2.0;
 pub const DEFAULT_MAX_COM_DISTANCE_M: f64 = 0.3;
 
 /// Why an estimate is not a payload.
+/// Principal moments as text, kg·m² to 0.01 g·m² ("(0.00604, 0.01234, 0.02345)").
+fn moments_text(m: &[f64; 3]) -> String {
+    format!("({:.5}, {:.5}, {:.5})", m[0], m[1], m[2])
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, thiserror::Error)]
 #[serde(rename_all = "snake_case", tag = "cause")]
 pub enum NonPhysical {
@@ -47,8 +52,9 @@ pub enum NonPhysical {
     /// The inertia about the centre of mass has a significantly negative principal moment.
     #[error(
         "the inertia about the centre of mass is not positive definite (principal moments \
-         {moments:?} kg·m², 1σ ≈ {std:.5}): no rigid body has it; excite the payload more \
-         (faster or longer sweeps, more orientations)"
+         {} kg·m², 1σ ≈ {std:.5}): no rigid body has it; excite the payload more \
+         (faster or longer sweeps, more orientations)",
+        moments_text(moments)
     )]
     InertiaNotPositiveDefinite {
         /// Principal moments about the CoM, ascending, kg·m².
@@ -58,8 +64,9 @@ pub enum NonPhysical {
     },
     /// The principal moments violate the triangle inequality I1 + I2 ≥ I3 significantly.
     #[error(
-        "the principal moments {moments:?} kg·m² violate the triangle inequality I1 + I2 ≥ I3 \
-         by {excess:.5} kg·m² (1σ ≈ {std:.5}): no rigid body has them"
+        "the principal moments {} kg·m² violate the triangle inequality I1 + I2 ≥ I3 \
+         by {excess:.5} kg·m² (1σ ≈ {std:.5}): no rigid body has them",
+        moments_text(moments)
     )]
     TriangleInequality {
         /// Principal moments about the CoM, ascending, kg·m².

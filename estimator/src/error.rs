@@ -17,6 +17,20 @@ pub enum EstimatorError {
         /// Which estimate needed them.
         what: &'static str,
     },
+    /// A log shorter than the zero-phase filter's two trimmed edges.
+    #[error(
+        "the log lasts {duration_s:.3} s, but the filter's edges ({trim_s:.3} s at each end, \
+         3/cutoff by default) are dropped: record at least {need_s:.3} s, or shorten the trim \
+         with --trim-s (at the cost of a filter transient in the kept samples)"
+    )]
+    LogTooShort {
+        /// Duration of the log (or of a contiguous piece of it), s.
+        duration_s: f64,
+        /// Edge trimmed at each end, s.
+        trim_s: f64,
+        /// Shortest log that keeps samples, s.
+        need_s: f64,
+    },
     /// A value is NaN or infinite.
     #[error(
         "sample {sample} (1-based), column `{column}` is not a finite number; fix or drop that row"

@@ -72,16 +72,23 @@ fn out_of_range_trim_is_an_invalid_setting() {
             other => panic!("trim {trim}: expected InvalidSetting, got {other:?}"),
         }
     }
-    // a trim longer than the log is "too few rows", with the numbers (1e30 s used to overflow)
+    // a trim longer than the log says so in seconds, with what to do (1e30 s used to overflow)
     for trim in [15.0, 1e30] {
         let options = MotionOptions {
             trim_s: Some(trim),
             ..MotionOptions::default()
         };
-        assert!(matches!(
-            process(&tr, &options),
-            Err(EstimatorError::TooFewSamples { got: 2000, .. })
-        ));
+        match process(&tr, &options) {
+            Err(e @ EstimatorError::LogTooShort { duration_s, .. }) => {
+                assert!((duration_s - 19.99).abs() < 1e-9, "{e}");
+                let text = e.to_string();
+                assert!(
+                    text.contains("--trim-s") && text.contains("19.990 s"),
+                    "{text}"
+                );
+            }
+            other => panic!("trim {trim}: expected LogTooShort, got {other:?}"),
+        }
     }
     // and a sensible trim keeps rows - 2·trim/dt samples
     let options = MotionOptions {

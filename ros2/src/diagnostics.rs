@@ -194,6 +194,9 @@ fn monitor_status(name: String, s: &StatusResult) -> DiagnosticStatus {
         (WARN, "arm held".to_owned())
     } else if !s.monitor.armed {
         (WARN, "disarmed".to_owned())
+    } else if let Some(u) = &s.unknown_payload {
+        // Weaker than the configuration while it lasts: say what is tolerated and until when.
+        (WARN, unknown_payload_message(u))
     } else if !s.residual_valid {
         (OK, "armed, warming up".to_owned())
     } else {
@@ -223,7 +226,43 @@ fn monitor_status(name: String, s: &StatusResult) -> DiagnosticStatus {
                 "tare samples",
                 s.tare_samples.map_or("none".to_owned(), |n| n.to_string()),
             ),
+            KeyValue::new(
+                "unknown payload",
+                s.unknown_payload
+                    .as_ref()
+                    .map_or("none".to_owned(), unknown_payload_message),
+            ),
+            KeyValue::new(
+                "unknown payload expires at (s)",
+                s.unknown_payload
+                    .as_ref()
+                    .and_then(|u| u.expires_at_s)
+                    .unwrap_or(f64::NAN),
+            ),
         ],
+    }
+}
+
+/// What the unknown-payload mode tolerates now and until when (controller time, s).
+fn unknown_payload_message(u: &fri_api::results::UnknownPayload) -> String {
+    let until = u
+        .expires_at_s
+        .map_or(String::new(), |t| format!("; expires at t = {t:.3} s"));
+    match (&u.pinned, u.grasp_window_end_s) {
+        (Some(p), _) => format!(
+            "armed, payload unknown: load pinned at {:.3} kg ({}), a change beyond {:.3} kg is a contact{until}",
+            p.mass,
+            p.by.name(),
+            p.mass_tolerance
+        ),
+        (None, Some(end)) => format!(
+            "armed, payload unknown: grasp window until t = {end:.3} s, any plausible flange load up to {:.2} kg within {:.3} m is tolerated{until}",
+            u.max_mass, u.max_radius
+        ),
+        (None, None) => format!(
+            "armed, payload unknown: any plausible flange load up to {:.2} kg within {:.3} m is tolerated until the loop pins it{until}",
+            u.max_mass, u.max_radius
+        ),
     }
 }
 
@@ -261,5 +300,44 @@ mod tests {
         assert!(a.status[0].message.contains("connection refused"));
         assert_eq!(a.status[1].name, "lwr: ROS 2 bridge");
         assert_eq!(a.status[1].values[0], KeyValue::new("states received", 5));
+    }
+
+    #[test]
+    fn the_unknown_payload_mode_says_what_it_tolerates_and_until_when() {
+        use fri_api::results::{DeclaredBy, PinnedBy, PinnedPayload, UnknownPayload};
+        let mut u = UnknownPayload {
+            declared_by: DeclaredBy::Operator,
+            origin: None,
+            max_mass: 7.0,
+            max_radius: 0.3,
+            samples: 0,
+            mass: None,
+            com: None,
+            consistent: true,
+            declared_at_s: Some(5.0),
+            grasp_window_end_s: Some(15.0),
+            expires_at_s: Some(125.0),
+            expires_in_s: Some(119.0),
+            pinned: None,
+        };
+        let m = unknown_payload_message(&u);
+        assert!(m.contains("grasp window until t = 15.000 s"), "{m}");
+        assert!(
+            m.contains("7.00 kg") && m.contains("expires at t = 125.000 s"),
+            "{m}"
+        );
+        u.pinned = Some(PinnedPayload {
+            mass: 3.028,
+            com: Some([0.0, 0.0, 0.119]),
+            mass_tolerance: 0.9,
+            com_tolerance: 0.05,
+            com_height_open: true,
+            by: PinnedBy::GraspWindow,
+            samples: None,
+            at_s: 15.0,
+        });
+        let m = unknown_payload_message(&u);
+        assert!(m.contains("pinned at 3.028 kg (grasp-window)"), "{m}");
+        assert!(m.contains("beyond 0.900 kg is a contact"), "{m}");
     }
 }

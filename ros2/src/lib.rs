@@ -20,4 +20,18 @@ pub mod sockets;
 pub mod srv;
 
 pub use bridge::{BridgeError, run};
+
+/// The bridge's log filter when `RUST_LOG` is unset: its own INFO lines; from the DDS stack only
+/// warnings, without rustdds's warning for every datagram over 1500 bytes (the bridge's state
+/// messages are larger by design) and ros2-client's for an unset `ROS_DISTRO` (no ROS install
+/// is needed). `RUST_LOG=info` shows everything again.
+pub const DEFAULT_LOG_FILTER: &str = "info,rustdds=warn,rustdds::network::udp_sender=error,ros2_client=warn,ros2_client::distributions=error";
+
+#[cfg(test)]
+mod log_filter_tests {
+    #[test]
+    fn the_default_log_filter_parses() {
+        assert!(tracing_subscriber::EnvFilter::try_new(super::DEFAULT_LOG_FILTER).is_ok());
+    }
+}
 pub use config::BridgeConfig;

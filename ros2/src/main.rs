@@ -1,9 +1,11 @@
 //! `fri-ros2 --config FILE.toml`: the FRI service's ROS 2 bridge (see `docs/ros2.md`).
 
 use std::path::PathBuf;
+use std::process::ExitCode;
 
 use anyhow::Context as _;
 use clap::Parser;
+use fri_api::stdio::{Stdout, clap_exit, exit_status};
 
 /// The FRI service's ROS 2 bridge: publishes the robot's state and events over DDS and serves
 /// its commands as ROS 2 services, with no ROS installation.
@@ -15,9 +17,22 @@ struct Args {
     config: PathBuf,
 }
 
-fn main() -> anyhow::Result<()> {
-    let args = Args::parse();
-    fri_service::init_logging("info");
+/// Exit status of every failure (configuration, start, the bridge, stdout).
+const EXIT_FAILED: u8 = 1;
+
+fn main() -> ExitCode {
+    let args = match Args::try_parse() {
+        Ok(args) => args,
+        Err(e) => return ExitCode::from(clap_exit(&e, EXIT_FAILED)),
+    };
+    fri_service::init_logging(fri_ros2::DEFAULT_LOG_FILTER);
+    let mut stdout = Stdout::new();
+    let result = run(&args);
+    // One line on stderr with the cause chain, never a backtrace.
+    ExitCode::from(exit_status(result, &mut stdout, EXIT_FAILED))
+}
+
+fn run(args: &Args) -> anyhow::Result<()> {
     let config = fri_ros2::BridgeConfig::load(&args.config)
         .with_context(|| format!("loading {}", args.config.display()))?;
     tracing::info!(

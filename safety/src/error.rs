@@ -86,4 +86,17 @@ pub enum ConfigError {
         /// Radius around the flange \[m\].
         radius_m: f64,
     },
+    /// The timing of an unknown-payload declaration is not finite and non-negative (expiry
+    /// positive).
+    #[error(
+        "unknown-payload timing must be finite and non-negative (expiry positive): grasp window {grasp_window_s} s, settle {settle_s} s, expiry {expire_s} s"
+    )]
+    GraspTiming {
+        /// Grasp window \[s\].
+        grasp_window_s: f64,
+        /// Settle time \[s\].
+        settle_s: f64,
+        /// Expiry \[s\].
+        expire_s: f64,
+    },
 }

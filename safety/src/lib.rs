@@ -49,7 +49,8 @@ pub use monitor::{CollisionMonitor, DEFAULT_WARMUP_S, MonitorConfig, MonitorOutp
 pub use observer::{MomentumObserver, ObserverInput, ObserverOutput, ObserverStatus};
 pub use payload::PayloadCompensation;
 pub use payload_tolerance::{
-    FlangeLoadBounds, LoadSample, PayloadHypothesis, PayloadTolerance, fit_hypothesis,
+    FlangeLoadBounds, GraspTiming, LoadSample, ModeEnd, PayloadHypothesis, PayloadTolerance,
+    PinSource, PinSummary, PinnedLoad, ToleranceStatus, fit_hypothesis,
 };
 pub use reaction::{ReactionPolicy, ReactionRequest, ReactionState, ReactionSupervisor, StopCause};
 pub use velocity::{DEFAULT_VELOCITY_CUTOFF_HZ, VelocityEstimator, VelocityFilter};

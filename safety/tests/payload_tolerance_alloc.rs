@@ -1,6 +1,7 @@
-//! The unknown-payload mode's per-cycle path (the plausible fit at one pose, the fit over the
-//! samples, the inertia allowance while moving, an inconsistent sample set, the onset it causes)
-//! never touches the heap, inside the monitor's step.
+//! The unknown-payload mode's per-cycle path (the plausible fit at one pose with the settle
+//! detection, the pin at the grasp window's end, the fit against a pinned load, the pin of the
+//! samples' fit, the inertia allowance while moving, an inconsistent sample set, the onset it
+//! causes, the expiry) never touches the heap, inside the monitor's step.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 #[global_allocator]
@@ -9,7 +10,7 @@ static ALLOCATOR: alloc_counter::CountingAllocator = alloc_counter::CountingAllo
 use dynamics::{Data, compute_generalized_gravity, lwr4, payload_gravity_regressor};
 use nalgebra::{SVector, Vector3, Vector4};
 use safety::{
-    CollisionMonitor, FlangeLoadBounds, LoadSample, MonitorConfig, ObserverInput,
+    CollisionMonitor, FlangeLoadBounds, GraspTiming, LoadSample, MonitorConfig, ObserverInput,
     PayloadCompensation, PayloadTolerance, fit_hypothesis,
 };
 
@@ -62,20 +63,37 @@ fn the_unknown_payload_path_does_not_allocate() {
         fit_hypothesis(&model, 1, &[load, tainted], &V7::repeat(6.0), &BOUNDS).unwrap();
     assert!(consistent.consistent && !inconsistent.consistent);
     let peak = V7::from_fn(|j, _| if j == 1 || j == 3 { 0.3 } else { 0.0 });
-    for hypothesis in [None, Some(consistent), Some(inconsistent)] {
+    // A grasp window of 0.1 s pins the load inside the counted cycles; the expiry at 0.25 s ends
+    // the mode inside them too (the push from 0.2 s is detected before it).
+    let short = GraspTiming {
+        grasp_window_s: 0.1,
+        settle_s: 0.05,
+        expire_s: 0.25,
+    };
+    for (hypothesis, timing) in [
+        (None, GraspTiming::default()),
+        (None, short),
+        (Some(consistent), GraspTiming::default()),
+        (Some(inconsistent), GraspTiming::default()),
+    ] {
         for moving in [false, true] {
             let mut monitor =
                 CollisionMonitor::new(model.clone(), MonitorConfig::new(T, 400.0)).unwrap();
             let mut tolerance = PayloadTolerance::new(&model);
-            tolerance.declare(1, BOUNDS).unwrap();
+            tolerance.declare(1, BOUNDS, timing, 0.0).unwrap();
             if let Some(h) = hypothesis {
                 assert!(tolerance.set_hypothesis(h));
             }
             tolerance.set_motion(moving, &peak);
             let applied = Vector4::zeros();
             let mut onsets = 0;
+            let mut now = 0.0;
             let n = alloc_counter::count_allocations(|| {
                 for input in &samples {
+                    now += T;
+                    tolerance.advance(now);
+                    let _ = tolerance.take_changed();
+                    let _ = tolerance.status();
                     let out = monitor.step_with(input, |input, observed, thresholds| {
                         tolerance.contact_residual(
                             &input.q,
@@ -91,6 +109,9 @@ fn the_unknown_payload_path_does_not_allocate() {
                 }
             });
             assert_eq!(n, 0, "{hypothesis:?}, moving {moving}: {n} allocations");
+            if timing == short {
+                assert!(!tolerance.is_active(), "the short timing expired");
+            }
             // Not vacuous: the push (30 Nm on joint 3, which no flange load explains there)
             // is detected on every path.
             assert!(onsets >= 1, "{hypothesis:?}, moving {moving}");

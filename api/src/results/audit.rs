@@ -78,6 +78,16 @@ pub enum Change {
         /// Radius around the flange point that holds the load, m.
         max_radius: f64,
     },
+    /// The load of the payload declared unknown was pinned: from now on a change of it is a
+    /// contact (`expect-payload`; docs/collision-detection.md §8).
+    PayloadPinned {
+        /// Pinned mass, kg.
+        mass: f64,
+        /// Its centre of mass in frame 7, m (`null` for a massless pin).
+        com: Option<[f64; 3]>,
+        /// What pinned it: `settled`, `grasp-window`, `move` or `samples`.
+        by: super::expect_payload::PinnedBy,
+    },
     /// The unknown-payload mode ended.
     UnknownPayloadEnded {
         /// Why (`applied`, `ended`, `expired`, …).
@@ -193,6 +203,19 @@ impl std::fmt::Display for Change {
                 f,
                 "payload declared unknown: up to {max_mass} kg within {max_radius} m of the flange"
             ),
+            Change::PayloadPinned { mass, com, by } => {
+                write!(f, "unknown payload pinned ({}): {mass:.4} kg", by.name())?;
+                match com {
+                    Some(c) => write!(
+                        f,
+                        " at ({:.1}, {:.1}, {:.1}) mm in frame 7",
+                        c[0] * 1e3,
+                        c[1] * 1e3,
+                        c[2] * 1e3
+                    ),
+                    None => Ok(()),
+                }
+            }
             Change::UnknownPayloadEnded { reason } => {
                 write!(f, "unknown-payload mode ended ({reason})")
             }

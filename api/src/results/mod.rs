@@ -38,7 +38,9 @@ pub use estimate::{
     UncertaintySource,
 };
 pub use event::{Event, RawEvent};
-pub use expect_payload::{DeclaredBy, ExpectPayloadResult, UnknownPayload};
+pub use expect_payload::{
+    DeclaredBy, ExpectPayloadResult, PinnedBy, PinnedPayload, UnknownPayload,
+};
 pub use payload::{AppliedPayload, PayloadResult};
 pub use progress::{Phase, Progress, Workflow};
 pub use record::RecordResult;

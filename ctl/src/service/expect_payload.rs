@@ -11,6 +11,7 @@ use fri_api::results::{DeclaredBy, ExpectPayloadResult, UnknownPayload};
 use super::JsonFlag;
 use super::format::{fixed, xyz_mm};
 use super::runner::Operation;
+use fri_api::results::PinnedPayload;
 
 /// Long help of `expect-payload`.
 pub(super) const HELP: &str = "\
@@ -18,13 +19,19 @@ Declare the payload unknown, before grasping it (the arm does not move). The col
 stays ARMED: it detects contacts against the torque of the payload it predicts instead of \
 tripping on the payload itself (the paper's point: an unknown payload looks like a contact).
 
-Until the first static sample (the grasp itself) it tolerates only what a plausible static \
-load on the flange explains: a downward force of at most --max-mass kg whose centre of mass \
-lies within --max-radius m of the flange point; anything else (sideways or lifting forces, \
-torques no flange load makes, a heavier load) is a contact. `estimate-payload` then refits the \
-payload after every static sample and the monitor detects against that fit; a torque no flange \
-load explains across the poses is a contact too, and so is the payload's inertia beyond an \
-allowance derived from the motion limits while the arm moves.
+During the grasp it tolerates only what a plausible static load on the flange explains: a \
+downward force of at most --max-mass kg whose centre of mass lies within --max-radius m of the \
+flange point; anything else (sideways or lifting forces, torques no flange load makes, a \
+heavier load) is a contact. The grasp ends when the load has changed and settled (the \
+service's [unknown_payload] settle_s at rest), or at the latest when the grasp window \
+([unknown_payload] grasp_window_s, default 10 s) ends: the load is then PINNED, and any later \
+change of it beyond the thresholds (a push down, a lift) is a contact. `estimate-payload` \
+refits the payload after every static sample and pins the fit; a torque no flange load \
+explains across the poses is a contact too, and so is the payload's inertia beyond an \
+allowance derived from the motion limits while the arm moves. Without an estimate the mode \
+expires ([unknown_payload] expire_s after the declaration or the last sample, default 120 s): \
+the monitor detects against the applied payload again. The answer (and `status`) says until \
+when the grasp may last, what is pinned, and when the mode expires.
 
 The mode ends when a payload is applied (`estimate-payload --apply`, `apply-payload`, \
 `clear-payload`), without a gap, or with `--end` (the applied payload, or none, is the payload \
@@ -104,11 +111,9 @@ pub(super) fn print_mode(u: &UnknownPayload, out: &mut dyn Write) -> io::Result<
         fixed(u.max_mass, 2),
         fixed(u.max_radius, 3)
     )?;
+    print_pin(u, out)?;
     match (u.mass, u.samples) {
-        (_, 0) => writeln!(
-            out,
-            "                 no static sample yet: any plausible load at the current pose is tolerated"
-        ),
+        (_, 0) => writeln!(out, "                 no static sample yet"),
         (Some(m), n) => writeln!(
             out,
             "                 fitted to {n} static sample(s): {} kg, centre of mass [mm] {} in frame 7{}",
@@ -122,4 +127,63 @@ pub(super) fn print_mode(u: &UnknownPayload, out: &mut dyn Write) -> io::Result<
         ),
         (None, n) => writeln!(out, "                 {n} static sample(s)"),
     }
+}
+
+/// Writes the grasp window, the pinned load and the expiry (controller time, as `status`'s).
+fn print_pin(u: &UnknownPayload, out: &mut dyn Write) -> io::Result<()> {
+    match (&u.pinned, u.grasp_window_end_s) {
+        (Some(p), _) => print_pinned(p, u.max_radius, out)?,
+        (None, Some(end)) => writeln!(
+            out,
+            "                 GRASP WINDOW open until t = {} s: any plausible load at the current pose is tolerated until the load has settled or the window ends",
+            fixed(end, 3)
+        )?,
+        (None, None) => writeln!(
+            out,
+            "                 the loop has not taken the declaration yet (no controller?): any plausible load will be tolerated until it is pinned"
+        )?,
+    }
+    match (u.expires_at_s, u.expires_in_s) {
+        (Some(at), Some(left)) => writeln!(
+            out,
+            "                 expires at t = {} s (in {} s) unless an estimate is applied or a static sample refits the load",
+            fixed(at, 3),
+            fixed(left, 1)
+        ),
+        (Some(at), None) => writeln!(
+            out,
+            "                 expires at t = {} s unless an estimate is applied or a static sample refits the load",
+            fixed(at, 3)
+        ),
+        _ => Ok(()),
+    }
+}
+
+fn print_pinned(p: &PinnedPayload, max_radius: f64, out: &mut dyn Write) -> io::Result<()> {
+    let by = match p.samples {
+        Some(n) => format!("by the fit of {n} static sample(s)"),
+        None => format!("({})", p.by.name()),
+    };
+    writeln!(
+        out,
+        "                 load PINNED {by} at t = {} s: {} kg, centre of mass [mm] {} in frame 7; any later change is a contact",
+        fixed(p.at_s, 3),
+        fixed(p.mass, 4),
+        p.com.map_or_else(|| "-".to_owned(), |c| xyz_mm(&c, 1)),
+    )?;
+    writeln!(
+        out,
+        "                 unseen at the pinning pose: up to {} kg more or less ({} N down or up on the flange), a {} mm shift of the centre of mass across gravity{}",
+        fixed(p.mass_tolerance, 3),
+        fixed(p.mass_tolerance * 9.81, 1),
+        fixed(p.com_tolerance * 1e3, 1),
+        if p.com_height_open {
+            format!(
+                "; its height along gravity follows the pose within {} m until a sample at a second orientation",
+                fixed(max_radius, 3)
+            )
+        } else {
+            String::new()
+        }
+    )
 }

@@ -93,9 +93,15 @@ pub(super) fn print(r: &StatusResult, out: &mut dyn Write) -> io::Result<()> {
         None => {}
     }
     if let Some(f) = &r.fri {
+        // Disconnected, the endpoint's view is the last measurement's, not the link's now.
+        let when = if r.connected {
+            ""
+        } else {
+            "last measurement: "
+        };
         writeln!(
             out,
-            "fri            state {}, quality {}; KRL {} (last drop to monitor mode: {})",
+            "fri            {when}state {}, quality {}; KRL {} (last drop to monitor mode: {})",
             f.state, f.quality, f.krl_status, f.drop_reason
         )?;
         let c = &f.controller_statistics;
@@ -248,6 +254,12 @@ mod tests {
         r.connected = false;
         let text_of = |r: &StatusResult| text(r).lines().next().unwrap_or_default().to_owned();
         assert!(text_of(&r).contains("NOT connected"), "{}", text_of(&r));
+        // The endpoint's view is the last measurement's, never the link's quality now.
+        assert!(
+            text(&r).contains("fri            last measurement: state"),
+            "{}",
+            text(&r)
+        );
         if let Some(f) = &mut r.fri {
             f.resync = Some(fri_api::results::PendingResync {
                 kind: ResyncKind::Restart,

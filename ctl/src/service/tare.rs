@@ -67,7 +67,13 @@ impl Operation for TareArgs {
     }
 
     fn print(&self, r: &TareResult, out: &mut dyn Write) -> io::Result<()> {
-        writeln!(out, "tare stored    {} poses, centre:", r.samples)?;
+        // `status` counts samples: one more, the first pose sampled again for the drift.
+        writeln!(
+            out,
+            "tare stored    {} poses ({} samples: the first pose is sampled again at the end for the drift), centre:",
+            r.samples,
+            r.samples + 1
+        )?;
         joint_header(out)?;
         joint_row_deg(out, "around", &r.around, 2)?;
         joint_row(out, "around", "rad", &r.around, 4)?;

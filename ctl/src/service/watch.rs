@@ -17,8 +17,9 @@ use super::runner::Operation;
 pub(super) const HELP: &str = "\
 Stream the service's events until interrupted (Ctrl-C) or the service ends the stream: \
 collisions (link, joints, time in s, residual in Nm), stops and their cause with the \
-controller's view, resumes, aborted moves, restarts of the collision monitor, and workflow \
-progress. With `--state-every N` also a state line every N cycles (1…100000; at 1 ms, 1000 is \
+controller's view, resumes, aborted moves, restarts of the collision monitor, and the audit \
+trail's changes (who armed, configured, applied). A workflow's progress goes to the client that \
+started it (its progress bar), not to watchers. With `--state-every N` also a state line every N cycles (1…100000; at 1 ms, 1000 is \
 one line per second) with positions in deg and the residual in Nm. The arm does not move.
 
 With `--json` every event is one JSON line `{\"event\": …, \"data\": …}`.";

@@ -15,8 +15,8 @@ pub use fri_api::{DEFAULT_SOCKET, JOINTS, stop_socket_beside};
 /// Errors while loading or validating the configuration.
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
-    /// The file could not be read.
-    #[error("cannot read config file {path}: {source}")]
+    /// The file could not be read (the I/O error is the source: a cause chain prints it once).
+    #[error("cannot read config file {path}")]
     Read {
         /// File that failed.
         path: PathBuf,
@@ -317,6 +317,16 @@ pub struct UnknownPayloadConfig {
     /// Radius around the flange point that holds the payload (its mass and centre of mass), m
     /// (default 0.3; range 0.01…1).
     pub max_radius_m: f64,
+    /// Longest time after `expect-payload` in which the load may change (the grasp), s; at its
+    /// end the load is pinned (default 10; range 0.5…120).
+    pub grasp_window_s: f64,
+    /// Time a changed load must stay settled at rest to be pinned before the window ends, s
+    /// (default 0.5; range 0.05…5).
+    pub settle_s: f64,
+    /// Time without an estimate (since the declaration or the last static sample's refit) after
+    /// which the mode ends and the monitor detects against the applied payload again, s
+    /// (default 120; range 5…3600).
+    pub expire_s: f64,
 }
 
 impl Default for UnknownPayloadConfig {
@@ -324,6 +334,20 @@ impl Default for UnknownPayloadConfig {
         Self {
             max_mass_kg: 7.0,
             max_radius_m: 0.3,
+            grasp_window_s: safety::payload_tolerance::settle::DEFAULT_GRASP_WINDOW_S,
+            settle_s: safety::payload_tolerance::settle::DEFAULT_SETTLE_S,
+            expire_s: safety::payload_tolerance::settle::DEFAULT_EXPIRE_S,
+        }
+    }
+}
+
+impl UnknownPayloadConfig {
+    /// The timing of an operator's declaration.
+    pub fn timing(&self) -> safety::GraspTiming {
+        safety::GraspTiming {
+            grasp_window_s: self.grasp_window_s,
+            settle_s: self.settle_s,
+            expire_s: self.expire_s,
         }
     }
 }

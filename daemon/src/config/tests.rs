@@ -255,6 +255,21 @@ fn every_numeric_key_out_of_range_is_rejected_naming_the_key_and_range() {
             "256…16777216 bytes",
         ),
         (
+            "[unknown_payload]\ngrasp_window_s = 0.1\n".to_owned(),
+            "unknown_payload.grasp_window_s",
+            "0.5…120 s",
+        ),
+        (
+            "[unknown_payload]\nsettle_s = 60\n".to_owned(),
+            "unknown_payload.settle_s",
+            "0.05…5 s",
+        ),
+        (
+            "[unknown_payload]\nexpire_s = inf\n".to_owned(),
+            "unknown_payload.expire_s",
+            "5…3600 s",
+        ),
+        (
             "[operator]\nmax_clients = 0\n".to_owned(),
             "operator.max_clients",
             "1…4096",
@@ -332,4 +347,15 @@ fn one_threshold_or_gain_sets_every_joint() {
 fn missing_file_is_a_read_error() {
     let err = Config::load(Path::new("/nonexistent/fri.toml")).unwrap_err();
     assert!(matches!(err, ConfigError::Read { .. }));
+    // The cause chain names the I/O error once (it used to be in the message and the source).
+    let chain = format!("{:#}", anyhow::Error::new(err));
+    assert_eq!(
+        chain.matches("No such file or directory").count(),
+        1,
+        "{chain}"
+    );
+    assert!(
+        chain.starts_with("cannot read config file /nonexistent/fri.toml: "),
+        "{chain}"
+    );
 }

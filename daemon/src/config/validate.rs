@@ -110,6 +110,13 @@ impl Config {
             u.max_radius_m,
             bounds::UNKNOWN_PAYLOAD_RADIUS,
         )?;
+        in_range(
+            "unknown_payload.grasp_window_s",
+            u.grasp_window_s,
+            bounds::GRASP_WINDOW_S,
+        )?;
+        in_range("unknown_payload.settle_s", u.settle_s, bounds::SETTLE_S)?;
+        in_range("unknown_payload.expire_s", u.expire_s, bounds::EXPIRE_S)?;
         let m = &self.motion;
         for j in 0..JOINTS {
             // At most the joint's rated speed and the speed the set-point step limit allows.

@@ -118,7 +118,10 @@ impl Handler for Dispatcher {
                 max_mass,
                 max_radius,
                 end,
-            } => reply(s.expect_payload(max_mass, max_radius, end.unwrap_or(false), &origin)),
+            } => reply(
+                s.expect_payload(max_mass, max_radius, end.unwrap_or(false), &origin)
+                    .await,
+            ),
             Command::Collision {
                 action,
                 thresholds,

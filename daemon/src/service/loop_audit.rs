@@ -52,6 +52,9 @@ pub fn change_of(event: &CycleEvent) -> Option<Change> {
             by_service: None, ..
         } => None,
         CycleEvent::Resynchronised { reason, .. } => Some(Change::MonitorRestarted { reason }),
+        // Pins and expiries need the operator side's state: `follow_unknown_payload` records
+        // them.
+        CycleEvent::UnknownPayload { .. } => None,
         CycleEvent::State(_) | CycleEvent::MoveAborted { .. } => None,
     }
 }

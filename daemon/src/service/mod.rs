@@ -335,8 +335,10 @@ impl RunningService {
             StopLimits::default(),
             shutdown.clone(),
         );
+        // The loop's own changes of the unknown-payload mode (pins, an expiry) reach the audit.
+        let follow = self.core.follow_unknown_payload(shutdown.clone());
         let serving = server::serve(listener, dispatcher, policy, limits, shutdown);
-        tokio::join!(serving, stopping, brake);
+        tokio::join!(serving, stopping, brake, follow);
         let _ = std::fs::remove_file(&c.socket);
         let _ = std::fs::remove_file(&stop_path);
         self.core.leave_command_mode(LEAVE_COMMAND_TIMEOUT).await;

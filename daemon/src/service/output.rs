@@ -78,6 +78,20 @@ impl StopReason {
 
 pub use fri_api::results::{AbortReason, ReleaseReason, ResyncReason};
 
+/// The unknown-payload mode as the loop holds it (fixed-size: it leaves the loop by value).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum UnknownPayloadView {
+    /// Declared: what is tolerated and until when (controller time).
+    Active(safety::ToleranceStatus),
+    /// Ended (applied, ended by the operator, or expired).
+    Ended {
+        /// The declaration that ended.
+        declaration: u32,
+        /// Why.
+        reason: safety::ModeEnd,
+    },
+}
+
 /// What the loop reports to the non-real-time side, in cycle order.
 #[allow(clippy::large_enum_variant)] // by value on purpose: no allocation per cycle
 #[derive(Debug, Clone, Copy)]
@@ -110,6 +124,14 @@ pub enum CycleEvent {
         reason: AbortReason,
         /// The controller's view then.
         fri: FriContext,
+    },
+    /// The unknown-payload mode changed: declared, pinned, pinned again by static samples, or
+    /// ended (an expiry is known only here).
+    UnknownPayload {
+        /// Cycle of the change.
+        cycle: u64,
+        /// The mode after it.
+        view: UnknownPayloadView,
     },
     /// The collision monitor started over; its residual is invalid until its warm-up ends.
     Resynchronised {

@@ -90,6 +90,11 @@ impl Replay {
         self._requests.try_send(request).is_ok()
     }
 
+    /// The processor, to inspect what it did.
+    pub fn processor(&self) -> &CycleProcessor {
+        self.responder.hook()
+    }
+
     /// Empties the event queue (the fan-out thread's job in the service).
     pub fn drain(&mut self) -> usize {
         self.events.try_iter().count()

@@ -21,7 +21,7 @@ use tokio::sync::broadcast;
 
 use super::cycle::CycleEvent;
 use super::loop_audit::LoopAudit;
-use super::output::{FriContext, StopReason};
+use super::output::{FriContext, StopReason, UnknownPayloadView};
 use super::state::{LoopState, Snapshot};
 use crate::audit::Audit;
 use crate::ipc::IpcSender;
@@ -43,6 +43,7 @@ pub enum Update {
 struct Latest {
     snapshot: Option<(Snapshot, Instant)>,
     stop: Option<(StopReason, FriContext)>,
+    unknown_payload: Option<UnknownPayloadView>,
 }
 
 /// The loop's output as seen by the tokio side.
@@ -78,6 +79,11 @@ impl Shared {
         self.with(|l| l.snapshot).map(|(s, at)| (s, at.elapsed()))
     }
 
+    /// The unknown-payload mode as the loop last reported it (`None` before any declaration).
+    pub fn unknown_payload(&self) -> Option<UnknownPayloadView> {
+        self.with(|l| l.unknown_payload)
+    }
+
     /// Every following update, in the loop's order.
     pub fn subscribe(&self) -> broadcast::Receiver<Update> {
         self.updates.subscribe()
@@ -103,6 +109,10 @@ impl Shared {
                     s.robot.flags |= flags::STOPPED;
                     s.state = LoopState::of(&s.robot, l.stop);
                 }
+                Update::Event(e)
+            }
+            CycleEvent::UnknownPayload { view, .. } => {
+                l.unknown_payload = Some(view);
                 Update::Event(e)
             }
             other => Update::Event(other),

@@ -85,7 +85,9 @@ pub fn piece_of<const N: usize>(
         options.trim_s,
     ) {
         Ok(s) => s,
-        Err(EstimatorError::TooFewSamples { .. }) => return Ok(None),
+        Err(EstimatorError::TooFewSamples { .. } | EstimatorError::LogTooShort { .. }) => {
+            return Ok(None);
+        }
         Err(e) => return Err(e),
     };
     Ok(Some((

@@ -231,10 +231,10 @@ pub fn filtered<const N: usize>(
     let trim = (trim_s / dt).round() as usize;
     let need = trim.saturating_mul(2).saturating_add(3);
     if need > n {
-        return Err(EstimatorError::TooFewSamples {
-            got: n,
-            need,
-            what: "rows after trimming the filter edges",
+        return Err(EstimatorError::LogTooShort {
+            duration_s: n.saturating_sub(1) as f64 * dt,
+            trim_s,
+            need_s: (need - 1) as f64 * dt,
         });
     }
     Ok(out[trim..n - trim].to_vec())

@@ -140,10 +140,12 @@ fn build_config(args: &Args) -> Result<SimulationConfig> {
         config.payload.com_m = [x, y, z];
     }
     if let Some(q) = &args.initial_q {
-        let q: [f64; 7] = q
-            .as_slice()
-            .try_into()
-            .context("--initial-q needs 7 angles in rad")?;
+        let Ok(q) = <[f64; 7]>::try_from(q.as_slice()) else {
+            bail!(
+                "--initial-q needs 7 angles in rad (Q1,..,Q7), got {}",
+                q.len()
+            );
+        };
         config.initial_q_rad = Some(q);
     }
     if let Some(n) = args.torque_noise {
@@ -379,5 +381,12 @@ mod tests {
         assert_eq!(args.payload_com.as_deref().map(|c| c[2]), Some(-0.1));
         let config = build_config(&args).unwrap();
         assert_eq!(config.initial_q_rad.map(|q| q[3]), Some(-1.2));
+    }
+
+    #[test]
+    fn a_short_initial_q_names_the_flag_and_the_count() {
+        let args = Args::try_parse_from(["mock-robot", "--initial-q", "0,0.5,0"]).unwrap();
+        let e = format!("{:#}", build_config(&args).unwrap_err());
+        assert_eq!(e, "--initial-q needs 7 angles in rad (Q1,..,Q7), got 3");
     }
 }

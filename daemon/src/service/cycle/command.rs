@@ -94,6 +94,8 @@ impl CycleProcessor {
             self.pending_target = None;
             match JointMove::new(start, target, self.settings.limits) {
                 Ok(m) => {
+                    // The service's own move: the grasp of a payload declared unknown is over.
+                    self.tolerance.end_grasp();
                     self.motion = Some((m, self.time_s, target));
                     self.abort_reported = false;
                 }

@@ -19,9 +19,13 @@
 //! - while the monitor warms up or waits, the published residual is NaN and flagged
 //!   [`flags::RESIDUAL_INVALID`], and no collision can be reported;
 //! - while the payload is declared unknown ([`CycleRequest::ExpectPayload`]) the monitor stays
-//!   armed and its detector sees the residual no plausible flange load explains
-//!   (`safety::PayloadTolerance`, [`unknown_payload`]); applying a payload ends that in the same
-//!   cycle, so the new estimate is in use without a gap.
+//!   armed and its detector sees the residual the load does not explain: any plausible flange
+//!   load during the grasp, the pinned load after it (`safety::PayloadTolerance`,
+//!   [`unknown_payload`]); applying a payload ends that in the same cycle, so the new estimate
+//!   is in use without a gap; without an estimate the mode expires on the controller's clock
+//!   and the monitor detects against the applied payload again;
+//! - every change of that mode (declared, pinned, ended, expired) leaves the loop as a
+//!   [`CycleEvent::UnknownPayload`] in the cycle it happened.
 
 use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
 
@@ -31,12 +35,14 @@ use fri::session::{DesiredCommand, Verdict};
 use fri::wire::{InterfaceState, Measurement, Quality};
 use nalgebra::SVector;
 use safety::{
-    CollisionMonitor, FlangeLoadBounds, ObserverInput, PayloadCompensation, PayloadHypothesis,
-    PayloadTolerance, ReactionRequest, StopCause,
+    CollisionMonitor, FlangeLoadBounds, GraspTiming, ObserverInput, PayloadCompensation,
+    PayloadHypothesis, PayloadTolerance, ReactionRequest, StopCause,
 };
 
 pub use super::output::CycleEvent;
-use super::output::{AbortReason, FriContext, ReleaseReason, ResyncReason, StopReason};
+use super::output::{
+    AbortReason, FriContext, ReleaseReason, ResyncReason, StopReason, UnknownPayloadView,
+};
 use crate::ipc::{CollisionMessage, RobotState};
 use crate::motion::{JointMove, MotionLimits};
 use fri_api::ipc::flags;
@@ -100,13 +106,15 @@ pub enum CycleRequest {
     /// through the handshake once the arm is at rest (no hold is latched: nothing to resume).
     Shutdown,
     /// The payload is unknown (declaration number `declaration`): keep the monitor armed and
-    /// tolerate only what a plausible flange load within `bounds` explains; a new declaration
-    /// forgets the samples of the previous one.
+    /// tolerate only what a plausible flange load within `bounds` explains until the load is
+    /// pinned (`timing`); a new declaration forgets the samples and the pin of the previous one.
     ExpectPayload {
         /// Number of this declaration (hypotheses of other declarations are refused).
         declaration: u32,
         /// What the unknown payload may be.
         bounds: FlangeLoadBounds,
+        /// When the load may change and when the mode expires.
+        timing: GraspTiming,
     },
     /// The payload hypothesis refitted after a static sample (ignored unless its declaration
     /// is the active one).
@@ -184,8 +192,9 @@ pub struct CycleProcessor {
     move_peak: V7,
     /// The arm may still be moving after the last commanded move (until it is at rest).
     settling_after_move: bool,
-    /// Largest joint speed of the previous cycle, rad/s.
-    last_speed: f64,
+    /// Consecutive live cycles in which the largest joint speed was under [`REST_SPEED`]: a
+    /// restarted observer's velocity starts from zero, so only a live one says the arm rests.
+    quiet_cycles: u32,
 }
 
 impl std::fmt::Debug for CycleProcessor {
@@ -239,7 +248,7 @@ impl CycleProcessor {
             tolerance,
             move_peak: V7::zeros(),
             settling_after_move: false,
-            last_speed: 0.0,
+            quiet_cycles: 0,
         }
     }
 
@@ -322,6 +331,8 @@ impl CycleProcessor {
 
         self.take_latched_stop(fri);
         self.handle_requests(fri);
+        // The mode's clock (its expiry, grasp window and pin) is the controller's.
+        self.tolerance.advance(self.time_s);
 
         self.follow_command_mode(msr, verdict.commanding, restarted, fri);
         let q = V7::from(msr.data.msr_jnt_pos);
@@ -347,7 +358,11 @@ impl CycleProcessor {
                     thresholds,
                 )
             });
-        self.last_speed = out.observer.velocity.amax();
+        self.quiet_cycles = if out.live && out.observer.velocity.amax() < REST_SPEED {
+            self.quiet_cycles.saturating_add(1)
+        } else {
+            0
+        };
         self.residual_valid = out.live && self.rest_wait.is_none();
         self.last_residual = out.observer.residual;
         self.observer_fault = out.observer.status.fault().is_some();
@@ -379,6 +394,7 @@ impl CycleProcessor {
         }
 
         let (desired, new_request) = self.command(msr, handshake, request, fri);
+        self.report_unknown_payload();
         self.publish(msr, &out.observer.velocity);
         (desired, new_request)
     }

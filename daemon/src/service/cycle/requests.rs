@@ -55,20 +55,23 @@ impl CycleProcessor {
                         self.payload = p;
                         // The payload is known again: from the next step on the monitor
                         // detects against it (the observer moves its residual at once).
-                        self.tolerance.end();
+                        self.tolerance.end(safety::ModeEnd::Applied);
                     }
                 }
                 CycleRequest::ExpectPayload {
                     declaration,
                     bounds,
+                    timing,
                 } => {
                     // The operator side validated the bounds; invalid ones change nothing.
-                    let _ = self.tolerance.declare(declaration, bounds);
+                    let _ = self
+                        .tolerance
+                        .declare(declaration, bounds, timing, self.time_s);
                 }
                 CycleRequest::PayloadHypothesis(h) => {
                     self.tolerance.set_hypothesis(h);
                 }
-                CycleRequest::EndExpectPayload => self.tolerance.end(),
+                CycleRequest::EndExpectPayload => self.tolerance.end(safety::ModeEnd::Ended),
                 CycleRequest::Arm(on) => {
                     // Arming starts from a live reaction whatever happened while disarmed.
                     self.monitor.set_armed(on);

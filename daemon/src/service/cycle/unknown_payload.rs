@@ -33,7 +33,10 @@ pub(super) fn peak_acceleration(
 
 impl CycleProcessor {
     /// Hands the monitor's unknown-payload view this cycle's motion: a running move's peak
-    /// acceleration, kept after the move until the arm is at rest (it lags its set-point).
+    /// acceleration, kept after the move until the arm is at rest (it lags its set-point and
+    /// rings): [`REST_CYCLES`] live cycles in a row under [`REST_SPEED`]. The velocity of a
+    /// monitor that has just restarted (a host gap) starts from zero whatever the arm does, so
+    /// it never ends the allowance.
     pub(super) fn follow_motion_for_tolerance(&mut self) {
         if let Some((m, _, target)) = &self.motion {
             let start = m.sample(0.0).position;
@@ -46,7 +49,7 @@ impl CycleProcessor {
                 &self.settings.limits,
             );
             self.settling_after_move = true;
-        } else if self.settling_after_move && self.last_speed < REST_SPEED {
+        } else if self.settling_after_move && self.quiet_cycles >= REST_CYCLES {
             self.settling_after_move = false;
             self.move_peak = V7::zeros();
         }
@@ -54,8 +57,28 @@ impl CycleProcessor {
             .set_motion(self.settling_after_move, &self.move_peak);
     }
 
+    /// Hands a change of the unknown-payload mode (declared, pinned, ended, expired) to the
+    /// non-real-time side, once per cycle with the mode as it stands after the cycle.
+    pub(super) fn report_unknown_payload(&mut self) {
+        if !self.tolerance.take_changed() {
+            return;
+        }
+        let view = match (self.tolerance.status(), self.tolerance.last_end()) {
+            (Some(status), _) => UnknownPayloadView::Active(status),
+            (None, Some((declaration, reason))) => UnknownPayloadView::Ended {
+                declaration,
+                reason,
+            },
+            (None, None) => return,
+        };
+        self.emit(CycleEvent::UnknownPayload {
+            cycle: self.cycle,
+            view,
+        });
+    }
+
     /// The residual a detected contact is reported with, Nm: while the payload is unknown the
-    /// part no plausible flange load explains (the detector saw it less the inertia allowance),
+    /// part the load does not explain (the detector saw it less the inertia allowance),
     /// otherwise the detector's own.
     pub(super) fn reported_residual(&self, detected: &V7) -> V7 {
         if self.tolerance.is_active() {

@@ -301,7 +301,8 @@ impl ServiceCore {
     }
 
     /// Records residuals and motion features from the loop's states until `duration_s` of robot
-    /// time (or until `stop` turns true). A collision, a stop, a lost state or a silent
+    /// time is recorded (the filters' settling at the start and after a gap not counted), or
+    /// until `stop` turns true. A collision, a stop, a lost state or a silent
     /// controller end it with an error; the payload must not change meanwhile.
     async fn record_free_motion(
         &self,
@@ -318,7 +319,6 @@ impl ServiceCore {
         let cycle_s = self.config.fri.cycle_s;
         let mut previous: Option<f64> = None;
         let mut settle = TRACKER_SETTLE_SAMPLES;
-        let mut started: Option<f64> = None;
         let mut reported = 0u64;
         let total = duration_s.map(|d| d.ceil() as usize);
         loop {
@@ -329,7 +329,6 @@ impl ServiceCore {
                             return Err(e);
                         }
                         let r = &s.robot;
-                        let t0 = *started.get_or_insert(r.time_s);
                         if !s.residual_valid() {
                             previous = None;
                             continue;
@@ -349,9 +348,12 @@ impl ServiceCore {
                         } else {
                             recorder.push(r.time_s, &nalgebra::SVector::from(r.residual), &features);
                         }
-                        let elapsed = r.time_s - t0;
-                        if elapsed as u64 > reported {
-                            reported = elapsed as u64;
+                        // Robot time recorded, s: the samples the fit gets, so `duration_s`
+                        // of 20 s gives the fit its 20 blocks of 1 s (the filters' settling at
+                        // the start and after a gap is not counted).
+                        let recorded_s = recorder.samples() as f64 * cycle_s;
+                        if recorded_s as u64 > reported {
+                            reported = recorded_s as u64;
                             events
                                 .event(&Event::Progress(Progress {
                                     phase: Phase::Recording,
@@ -364,7 +366,7 @@ impl ServiceCore {
                                 }))
                                 .await;
                         }
-                        if duration_s.is_some_and(|d| elapsed >= d) {
+                        if duration_s.is_some_and(|d| recorded_s >= d) {
                             break;
                         }
                     }

@@ -1,24 +1,36 @@
 //! `expect-payload`: the payload is about to be grasped (or is held) and is unknown. The loop's
-//! monitor stays armed and detects against what a plausible flange load explains
+//! monitor stays armed and detects against what a plausible flange load explains during the
+//! grasp, and against the pinned load once the load has settled or the grasp window has ended
 //! (`safety::PayloadTolerance`); after every static sample of a workflow the load is refitted
-//! here and the hypothesis handed to the loop. `estimate-payload --apply`, `apply-payload` and
-//! `clear-payload` end the mode (the loop ends it in the cycle that installs the payload), and
-//! so does `expect-payload` with `end`.
+//! here and the hypothesis handed to the loop, which pins its load again. `estimate-payload
+//! --apply`, `apply-payload` and `clear-payload` end the mode (the loop ends it in the cycle
+//! that installs the payload), and so does `expect-payload` with `end`; without an estimate the
+//! loop ends it after `[unknown_payload] expire_s`, and [`ServiceCore::follow_unknown_payload`]
+//! records that (and every pin) in the audit trail.
 //!
 //! `estimate-payload` enters the mode itself when the applied payload does not explain the
-//! residual at its start ([`UNEXPLAINED_SHARE`]).
+//! residual at its start ([`UNEXPLAINED_SHARE`]); the payload is held then, so its load is
+//! pinned at once (no grasp window).
 
 use std::time::Duration;
 
 use dynamics::{Data, compute_generalized_gravity};
 use fri_api::origin::Origin;
 use fri_api::protocol::{ErrorCode, OperatorError};
-use fri_api::results::{Change, DeclaredBy, ExpectPayloadResult, UnknownPayload};
-use safety::{FlangeLoadBounds, LoadSample, PayloadHypothesis, fit_hypothesis};
+use fri_api::results::{
+    Change, DeclaredBy, ExpectPayloadResult, PinnedBy, PinnedPayload, UnknownPayload,
+};
+use safety::{
+    FlangeLoadBounds, GraspTiming, LoadSample, PayloadHypothesis, PinSource, ToleranceStatus,
+    fit_hypothesis,
+};
+use tokio::sync::broadcast::error::RecvError;
 
 use crate::persistence::StaticSample;
 use crate::service::core::{ServiceCore, err};
 use crate::service::cycle::CycleRequest;
+use crate::service::output::{CycleEvent, UnknownPayloadView};
+use crate::service::stream::Update;
 
 /// Share of a joint's threshold the static residual may use at the start of `estimate-payload`
 /// while the applied payload still counts as explaining it. With a correct payload the residual
@@ -31,6 +43,10 @@ pub const UNEXPLAINED_SHARE: f64 = 1.0 / 3.0;
 /// Longest wait for a valid residual at the start of `estimate-payload` (the monitor's warm-up
 /// is 50 ms).
 const RESIDUAL_WAIT: Duration = Duration::from_millis(500);
+
+/// Longest wait of `expect-payload` for the loop to take the declaration (it does in the next
+/// cycle while a controller sends), so that the answer says until when the grasp may last.
+const DECLARATION_WAIT: Duration = Duration::from_millis(500);
 
 /// The unknown-payload mode as the operator side keeps it.
 #[derive(Debug, Clone)]
@@ -50,8 +66,11 @@ pub(crate) struct UnknownPayloadState {
 }
 
 impl UnknownPayloadState {
-    fn report(&self) -> UnknownPayload {
+    /// The mode for clients, with what the loop holds of this declaration (`looped`) and the
+    /// newest controller time `now_s`.
+    fn report(&self, looped: Option<&ToleranceStatus>, now_s: Option<f64>) -> UnknownPayload {
         let h = self.hypothesis.as_ref();
+        let looped = looped.filter(|l| l.declaration == self.declaration);
         UnknownPayload {
             declared_by: self.declared_by,
             origin: Some(self.origin.clone()),
@@ -61,14 +80,44 @@ impl UnknownPayloadState {
             mass: h.map(PayloadHypothesis::mass_kg),
             com: h.and_then(PayloadHypothesis::com).map(|c| [c.x, c.y, c.z]),
             consistent: h.is_none_or(|h| h.consistent),
+            declared_at_s: looped.map(|l| l.declared_at_s),
+            grasp_window_end_s: looped.map(|l| l.grasp_window_end_s),
+            expires_at_s: looped.map(|l| l.expires_at_s),
+            expires_in_s: looped
+                .zip(now_s)
+                .map(|(l, now)| (l.expires_at_s - now).max(0.0)),
+            pinned: looped.and_then(|l| l.pinned).map(|p| PinnedPayload {
+                mass: p.mass_kg,
+                com: p.com.map(|c| [c.x, c.y, c.z]),
+                mass_tolerance: p.mass_tolerance_kg,
+                com_tolerance: p.com_tolerance_m,
+                com_height_open: p.open_directions > 0,
+                by: pinned_by(p.source),
+                samples: match p.source {
+                    PinSource::Samples(n) => Some(n),
+                    _ => None,
+                },
+                at_s: p.at_s,
+            }),
         }
+    }
+}
+
+/// What clients see of a pin's source.
+fn pinned_by(source: PinSource) -> PinnedBy {
+    match source {
+        PinSource::Settled => PinnedBy::Settled,
+        PinSource::GraspWindow => PinnedBy::GraspWindow,
+        PinSource::Move => PinnedBy::Move,
+        PinSource::Samples(_) => PinnedBy::Samples,
     }
 }
 
 impl ServiceCore {
     /// `expect-payload`: declares the payload unknown with the given bounds (defaults from
-    /// `[unknown_payload]`), or with `end` leaves the mode.
-    pub fn expect_payload(
+    /// `[unknown_payload]`), or with `end` leaves the mode. Answers once the loop took the
+    /// declaration (at most [`DECLARATION_WAIT`]), with its grasp window and expiry.
+    pub async fn expect_payload(
         &self,
         max_mass: Option<f64>,
         max_radius: Option<f64>,
@@ -106,19 +155,44 @@ impl ServiceCore {
                 fri_api::bounds::UNKNOWN_PAYLOAD_RADIUS.check("max_radius", bounds.radius_m)
             })
             .map_err(OperatorError::out_of_range)?;
-        self.declare_unknown_payload(bounds, DeclaredBy::Operator, origin)?;
+        let declaration =
+            self.declare_unknown_payload(bounds, defaults.timing(), DeclaredBy::Operator, origin)?;
+        let mut updates = self.shared.subscribe();
+        let taken = |view: Option<UnknownPayloadView>| matches!(view, Some(UnknownPayloadView::Active(s)) if s.declaration == declaration);
+        if !taken(self.shared.unknown_payload()) {
+            let _ = tokio::time::timeout(DECLARATION_WAIT, async {
+                loop {
+                    match updates.recv().await {
+                        Ok(Update::Event(CycleEvent::UnknownPayload { view, .. }))
+                            if taken(Some(view)) =>
+                        {
+                            return;
+                        }
+                        Ok(_) | Err(RecvError::Lagged(_)) => {
+                            if taken(self.shared.unknown_payload()) {
+                                return;
+                            }
+                        }
+                        Err(RecvError::Closed) => return,
+                    }
+                }
+            })
+            .await;
+        }
         Ok(ExpectPayloadResult {
             unknown_payload: self.unknown_payload_status(),
         })
     }
 
-    /// Starts (or restarts, forgetting earlier samples) the unknown-payload mode.
+    /// Starts (or restarts, forgetting earlier samples and the pin) the unknown-payload mode;
+    /// returns the declaration's number.
     fn declare_unknown_payload(
         &self,
         bounds: FlangeLoadBounds,
+        timing: GraspTiming,
         declared_by: DeclaredBy,
         origin: &Origin,
-    ) -> Result<(), OperatorError> {
+    ) -> Result<u32, OperatorError> {
         let declaration = self.persistent(|s| {
             s.declarations = s.declarations.wrapping_add(1);
             s.declarations
@@ -126,6 +200,7 @@ impl ServiceCore {
         self.send(CycleRequest::ExpectPayload {
             declaration,
             bounds,
+            timing,
         })?;
         self.persistent(|s| {
             s.unknown_payload = Some(UnknownPayloadState {
@@ -144,12 +219,101 @@ impl ServiceCore {
                 max_radius: bounds.radius_m,
             },
         );
-        Ok(())
+        Ok(declaration)
     }
 
-    /// The unknown-payload mode for `status` (`None`: the applied payload is the payload).
+    /// The unknown-payload mode for `status` (`None`: the applied payload is the payload; also
+    /// once the loop ended this declaration, before [`Self::follow_unknown_payload`] has
+    /// recorded it).
     pub(crate) fn unknown_payload_status(&self) -> Option<UnknownPayload> {
-        self.persistent(|s| s.unknown_payload.as_ref().map(UnknownPayloadState::report))
+        let view = self.shared.unknown_payload();
+        let now = self.shared.latest().map(|s| s.robot.time_s);
+        self.persistent(|s| {
+            let u = s.unknown_payload.as_ref()?;
+            match view {
+                Some(UnknownPayloadView::Ended { declaration, .. })
+                    if declaration == u.declaration =>
+                {
+                    None
+                }
+                Some(UnknownPayloadView::Active(l)) => Some(u.report(Some(&l), now)),
+                _ => Some(u.report(None, now)),
+            }
+        })
+    }
+
+    /// Follows the loop's unknown-payload mode until `shutdown`: records every pin in the audit
+    /// trail, and an expiry (the loop ended the mode on its own) as the end of the mode, by the
+    /// service. The operator side's state of an expired declaration is dropped.
+    pub async fn follow_unknown_payload(&self, mut shutdown: tokio::sync::watch::Receiver<bool>) {
+        let mut updates = self.shared.subscribe();
+        // The last pin recorded: (declaration, controller time).
+        let mut recorded: Option<(u32, f64)> = None;
+        loop {
+            let view = tokio::select! {
+                u = updates.recv() => match u {
+                    Ok(Update::Event(CycleEvent::UnknownPayload { view, .. })) => Some(view),
+                    Ok(_) => None,
+                    // Missed updates: the latest view says where the mode stands.
+                    Err(RecvError::Lagged(_)) => self.shared.unknown_payload(),
+                    Err(RecvError::Closed) => return,
+                },
+                changed = shutdown.changed() => {
+                    if changed.is_err() || *shutdown.borrow() {
+                        return;
+                    }
+                    None
+                }
+            };
+            match view {
+                Some(UnknownPayloadView::Active(status)) => {
+                    let Some(pin) = status.pinned else { continue };
+                    if recorded == Some((status.declaration, pin.at_s)) {
+                        continue;
+                    }
+                    recorded = Some((status.declaration, pin.at_s));
+                    tracing::info!(
+                        declaration = status.declaration,
+                        mass_kg = pin.mass_kg,
+                        mass_tolerance_kg = pin.mass_tolerance_kg,
+                        by = pinned_by(pin.source).name(),
+                        "the unknown payload's load is pinned: a change of it is a contact"
+                    );
+                    self.audit.record(
+                        &Origin::Service,
+                        Change::PayloadPinned {
+                            mass: pin.mass_kg,
+                            com: pin.com.map(|c| [c.x, c.y, c.z]),
+                            by: pinned_by(pin.source),
+                        },
+                    );
+                }
+                Some(UnknownPayloadView::Ended {
+                    declaration,
+                    reason: safety::ModeEnd::Expired,
+                }) => {
+                    let ended = self.persistent(|s| {
+                        s.unknown_payload
+                            .take_if(|u| u.declaration == declaration)
+                            .is_some()
+                    });
+                    if ended {
+                        tracing::warn!(
+                            declaration,
+                            expire_s = self.config.unknown_payload.expire_s,
+                            "the unknown-payload mode expired without an estimate: the monitor detects against the applied payload again"
+                        );
+                        self.audit.record(
+                            &Origin::Service,
+                            Change::UnknownPayloadEnded {
+                                reason: "expired".to_owned(),
+                            },
+                        );
+                    }
+                }
+                _ => {}
+            }
+        }
     }
 
     /// The workflows' hook after each static sample: while the payload is unknown, refits the
@@ -229,11 +393,17 @@ impl ServiceCore {
                 "the applied payload does not explain the residual: estimating in the unknown-payload mode"
             );
             let c = &self.config.unknown_payload;
+            // The payload is held already: no grasp window, its load is pinned at once.
+            let timing = GraspTiming {
+                grasp_window_s: 0.0,
+                ..c.timing()
+            };
             self.declare_unknown_payload(
                 FlangeLoadBounds {
                     max_mass_kg: c.max_mass_kg,
                     radius_m: c.max_radius_m,
                 },
+                timing,
                 DeclaredBy::EstimatePayload,
                 origin,
             )?;

@@ -53,7 +53,8 @@ fn event_of(e: CycleEvent) -> Option<Event> {
                 fri,
             })
         }
-        CycleEvent::State(_) => return None,
+        // Its changes reach the watchers as audit records (the operator side records them).
+        CycleEvent::State(_) | CycleEvent::UnknownPayload { .. } => return None,
     })
 }
 

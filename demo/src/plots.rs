@@ -100,6 +100,41 @@ pub struct Panel {
     pub markers: Vec<Marker>,
     /// Legend entry of the markers (e.g. `contact onsets C1–C3`), if any.
     pub marker_legend: Option<String>,
+    /// Times the monitor detected a contact, s: drawn as triangles on the top edge.
+    pub detections: Vec<f64>,
+}
+
+/// Legend entry of the detection triangles.
+const DETECTION_LEGEND: &str = "monitor detection";
+
+/// A tick label: integers without decimals, else the shortest of up to three decimals.
+fn tick(v: f64) -> String {
+    if (v - v.round()).abs() < 1e-9 {
+        return format!("{:.0}", v.round() + 0.0);
+    }
+    let text = format!("{v:.3}");
+    text.trim_end_matches('0').trim_end_matches('.').to_owned()
+}
+
+/// `points` cut where the time step exceeds ten times its median (samples the log does not
+/// have, or left out): each piece is drawn as its own line, never bridged across the gap.
+fn pieces(points: &[(f64, f64)]) -> Vec<&[(f64, f64)]> {
+    let mut steps: Vec<f64> = points.windows(2).map(|w| w[1].0 - w[0].0).collect();
+    if steps.is_empty() {
+        return vec![points];
+    }
+    steps.sort_by(f64::total_cmp);
+    let limit = 10.0 * steps[steps.len() / 2];
+    let mut out = Vec::new();
+    let mut start = 0;
+    for k in 1..points.len() {
+        if points[k].0 - points[k - 1].0 > limit {
+            out.push(&points[start..k]);
+            start = k;
+        }
+    }
+    out.push(&points[start..]);
+    out
 }
 
 /// Draws `panels` stacked vertically into `svg` and into the PNG beside it (same name,
@@ -228,6 +263,8 @@ fn draw_panel<DB: DrawingBackend>(
         .axis_style(BLACK.stroke_width(s.px(1.0)))
         .x_labels(11)
         .y_labels(7)
+        .x_label_formatter(&|v| tick(*v))
+        .y_label_formatter(&|v| tick(*v))
         .draw()?;
     // Zero line: the residual's rest value.
     chart.draw_series(LineSeries::new(
@@ -236,16 +273,20 @@ fn draw_panel<DB: DrawingBackend>(
     ))?;
     for s_ in &panel.series {
         let color = PALETTE[s_.color % PALETTE.len()];
-        chart.draw_series(LineSeries::new(
-            s_.points.iter().copied(),
-            color.stroke_width(s.px(f64::from(s_.width))),
-        ))?;
+        for piece in pieces(&s_.points) {
+            chart.draw_series(LineSeries::new(
+                piece.iter().copied(),
+                color.stroke_width(s.px(f64::from(s_.width))),
+            ))?;
+        }
     }
     // Thresholds after the data, so they stay visible where the data cross them.
     let dash = (s.px(DASH.0), s.px(DASH.1));
     for t in &panel.thresholds {
         let color = t.color.map_or(NEUTRAL, |c| PALETTE[c % PALETTE.len()]);
-        let style = color.stroke_width(s.px(2.0));
+        // A curve per joint is thin (seven of them share the band around zero).
+        let width = if t.curve.is_some() { 1.0 } else { 2.0 };
+        let style = color.stroke_width(s.px(width));
         for sign in [1.0, -1.0] {
             match &t.curve {
                 Some(points) => {
@@ -304,6 +345,15 @@ fn draw_panel<DB: DrawingBackend>(
             EmptyElement::at((m.t, y1)) + Text::new(m.label.clone(), offset, style),
         ))?;
     }
+    // Detections: a triangle on the top edge at each.
+    let size = s.px(5.0) as i32;
+    chart.draw_series(
+        panel
+            .detections
+            .iter()
+            .filter(|t| (x0..=x1).contains(*t))
+            .map(|&t| TriangleMarker::new((t, y1), size, BLACK.filled())),
+    )?;
     draw_legend(&legend_area, panel, s)
 }
 
@@ -356,5 +406,44 @@ fn draw_legend<DB: DrawingBackend>(
     if let Some(label) = &panel.marker_legend {
         entry(label, NEUTRAL.stroke_width(s.px(1.5)), Some(DOT))?;
     }
+    if !panel.detections.is_empty() {
+        let centre = (x + sample / 2, y);
+        area.draw(&TriangleMarker::new(
+            centre,
+            s.px(5.0) as i32,
+            BLACK.filled(),
+        ))?;
+        area.draw_text(
+            DETECTION_LEGEND,
+            &font.clone().pos(Pos::new(HPos::Left, VPos::Center)),
+            (x + sample + s.px(6.0) as i32, y),
+        )?;
+    }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ticks_are_integers_without_decimals_and_fractions_without_trailing_zeros() {
+        assert_eq!(tick(30.0), "30");
+        assert_eq!(tick(-0.0), "0");
+        assert_eq!(tick(-10.0), "-10");
+        assert_eq!(tick(-1.5), "-1.5");
+        assert_eq!(tick(0.25), "0.25");
+    }
+
+    #[test]
+    fn a_line_is_cut_at_a_gap_and_kept_whole_without_one() {
+        let mut points: Vec<(f64, f64)> = (0..100).map(|k| (k as f64 * 0.005, 1.0)).collect();
+        assert_eq!(pieces(&points).len(), 1);
+        // 60 ms missing after t = 0.25 s (a host stall in a real-time log).
+        for p in points.iter_mut().skip(50) {
+            p.0 += 0.06;
+        }
+        let cut = pieces(&points);
+        assert_eq!(cut.iter().map(|p| p.len()).collect::<Vec<_>>(), [50, 50]);
+    }
 }

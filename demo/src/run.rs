@@ -659,10 +659,13 @@ async fn phases(
         &fig6,
         &times,
         thresholds,
-        &fri_signal,
-        &uncompensated,
-        &compensated,
+        (&fri_signal, &uncompensated, &compensated),
         &scheduled,
+        &Onsets {
+            fri: &on_f,
+            uncompensated: &on_u,
+            compensated: &on_c,
+        },
     )?;
     say(
         opts,
@@ -984,12 +987,30 @@ fn plot_fig5(
         Vector3::from(estimate.com),
     ));
     let mut data = Data::new(&loaded);
-    // q̈ from a central difference of the observer's filtered q̇ over ±10 cycles.
+    // q̈ from a central difference of the observer's filtered q̇ over ±10 cycles of the log's
+    // own time. Across a gap in the log (a host stall) the difference is no acceleration, and
+    // after one the observer's q̇ filter settles again (50 ms): no prediction there (NaN, the
+    // line is cut).
     let h = 10usize;
+    let gap = |k: usize| k > 0 && rows[k].time_s - rows[k - 1].time_s > 1.5 * cycle_s;
+    let settle = (0.05 / cycle_s) as usize;
+    let mut since_gap = usize::MAX;
+    let mut fresh = vec![false; rows.len()];
+    for (k, f) in fresh.iter_mut().enumerate() {
+        since_gap = if gap(k) {
+            0
+        } else {
+            since_gap.saturating_add(1)
+        };
+        *f = since_gap <= settle;
+    }
     let computed: Vec<V7> = (0..rows.len())
         .map(|k| {
             let (a, b) = (k.saturating_sub(h), (k + h).min(rows.len() - 1));
-            let span = (b - a).max(1) as f64 * cycle_s;
+            if (a + 1..=b).any(gap) || fresh[k] {
+                return V7::repeat(f64::NAN);
+            }
+            let span = (rows[b].time_s - rows[a].time_s).max(cycle_s);
             let qdd = (V7::from(rows[b].qd) - V7::from(rows[a].qd)) / span;
             dynamics::rnea(
                 &loaded,
@@ -1009,10 +1030,10 @@ fn plot_fig5(
         .iter()
         .map(|&j| Panel {
             title: format!(
-                "Joint {}: measured joint torque τ_J and τ_J computed with the estimated payload (RNEA)",
+                "Joint {}: measured joint torque and the torque computed with the estimated payload (RNEA)",
                 j + 1
             ),
-            y_label: "τ_J [Nm]".into(),
+            y_label: "joint torque [Nm]".into(),
             // The computed torque first, the measured one (thinner) on top of it.
             series: vec![
                 Series {
@@ -1031,6 +1052,7 @@ fn plot_fig5(
             thresholds: Vec::new(),
             markers: markers.clone(),
             marker_legend: Some(CONTACT_LEGEND.into()),
+            detections: Vec::new(),
         })
         .collect();
     plots::draw(path, &panels).map(|_| ())
@@ -1090,14 +1112,21 @@ fn threshold_lines(thresholds: &[f64; 7]) -> Vec<Threshold> {
         .collect()
 }
 
+/// Where each signal's monitor detected a contact (s since the run's start): the figure's
+/// triangles.
+struct Onsets<'a> {
+    fri: &'a [f64],
+    uncompensated: &'a [f64],
+    compensated: &'a [f64],
+}
+
 fn plot_fig6(
     path: &Path,
     times: &[f64],
     thresholds: &[f64; 7],
-    fri: &[V7],
-    uncompensated: &[V7],
-    compensated: &[V7],
+    (fri, uncompensated, compensated): (&[V7], &[V7], &[V7]),
     scheduled: &[V7],
+    onsets_of: &Onsets<'_>,
 ) -> anyhow::Result<()> {
     let markers = contact_markers();
     // Panel (c): each joint's calibrated threshold θ_j(t), dashed in the joint's colour, as its
@@ -1121,7 +1150,7 @@ fn plot_fig6(
             }
         })
         .collect();
-    let panel = |title: &str, y_label: &str, sig: &[V7]| Panel {
+    let panel = |title: &str, y_label: &str, sig: &[V7], detected: &[f64]| Panel {
         title: title.to_owned(),
         y_label: y_label.to_owned(),
         series: (0..7)
@@ -1135,19 +1164,22 @@ fn plot_fig6(
         thresholds: threshold_lines(thresholds),
         markers: markers.clone(),
         marker_legend: Some(CONTACT_LEGEND.into()),
+        detections: detected.to_vec(),
     };
     plots::draw(
         path,
         &[
             panel(
                 "(a) Controller's external-torque estimate (FRI estExtJntTrq), payload not declared",
-                "τ_ext [Nm]",
+                "estExtJntTrq [Nm]",
                 fri,
+                &onsets_of.fri,
             ),
             panel(
                 "(b) Momentum-observer residual without payload compensation",
                 "r [Nm]",
                 uncompensated,
+                &onsets_of.uncompensated,
             ),
             Panel {
                 thresholds: scheduled_lines,
@@ -1155,6 +1187,7 @@ fn plot_fig6(
                     "(c) Residual, estimated payload compensated (eq. 48 and its inertia); calibrated θⱼ(t), 1 false alarm/10 h",
                     "r [Nm]",
                     compensated,
+                    &onsets_of.compensated,
                 )
             },
         ],

@@ -91,5 +91,15 @@ fn demo_in_lockstep_reports_the_estimate_and_the_three_contacts() {
             .unwrap(),
     )
     .unwrap();
-    assert!(fig5.contains("τ_J"), "Fig. 5 labels");
+    assert!(fig5.contains("joint torque [Nm]"), "Fig. 5 labels");
+    // Labels are text, never a literal TeX subscript.
+    assert!(
+        !fig5.contains("τ_") && !fig6.contains("τ_"),
+        "literal underscores"
+    );
+    // Panel (c) marks where the monitor detected the three contacts.
+    assert!(
+        fig6.contains("monitor detection"),
+        "Fig. 6 detection legend"
+    );
 }

@@ -12,12 +12,12 @@ pub const SIGNIFICANCE: f64 = 2.0;
 /// monitor's `max_radius` of a plausible flange load).
 pub const DEFAULT_MAX_COM_DISTANCE_M: f64 = 0.3;
 
-/// Why an estimate is not a payload.
 /// Principal moments as text, kg·m² to 0.01 g·m² ("(0.00604, 0.01234, 0.02345)").
 fn moments_text(m: &[f64; 3]) -> String {
     format!("({:.5}, {:.5}, {:.5})", m[0], m[1], m[2])
 }
 
+/// Why an estimate is not a payload.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, thiserror::Error)]
 #[serde(rename_all = "snake_case", tag = "cause")]
 pub enum NonPhysical {

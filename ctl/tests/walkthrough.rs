@@ -45,8 +45,8 @@ async fn fri_ctl(args: &[&str], socket: &Path) -> String {
 /// `mock-robot control …` as the line it sends to the control socket; the reply's message.
 async fn control(socket: &Path, line: &str) -> String {
     let socket = socket.to_owned();
-    let line = line.to_owned();
-    let reply = tokio::task::spawn_blocking(move || mock_robot::control::send(&socket, &line))
+    let sent = line.to_owned();
+    let reply = tokio::task::spawn_blocking(move || mock_robot::control::send(&socket, &sent))
         .await
         .unwrap()
         .unwrap();

@@ -100,6 +100,30 @@ fn a_settled_grasp_is_pinned_and_a_later_push_is_a_contact() {
     assert_eq!(detected(grasped), [true; 3]);
 }
 
+/// Runs `n` cycles: whether the mode expired in them, and the safety events (neither the
+/// mode's reports nor states).
+fn expiry_and_safety_events(rig: &mut Rig, n: usize) -> (bool, Vec<CycleEvent>) {
+    let mut expired = false;
+    let mut safety_events = Vec::new();
+    for _ in 0..n {
+        for e in rig.cycle() {
+            match e {
+                CycleEvent::UnknownPayload {
+                    view:
+                        fri_service::service::output::UnknownPayloadView::Ended {
+                            reason: safety::ModeEnd::Expired,
+                            ..
+                        },
+                    ..
+                } => expired = true,
+                CycleEvent::UnknownPayload { .. } | CycleEvent::State(_) => {}
+                other => safety_events.push(other),
+            }
+        }
+    }
+    (expired, safety_events)
+}
+
 /// Without an estimate the mode ends after `expire_s`: an event says so, and the full monitor
 /// detects against the applied payload again, so a grasped payload nobody applied is a contact.
 #[test]
@@ -110,42 +134,10 @@ fn without_an_estimate_the_mode_expires_and_the_full_monitor_returns() {
     rig.declare();
     rig.run(100);
     rig.grasp_over(0.2);
-    let mut ended = false;
-    let mut safety_events = Vec::new();
-    for _ in 0..2500 {
-        for e in rig.cycle() {
-            match e {
-                CycleEvent::UnknownPayload {
-                    view:
-                        fri_service::service::output::UnknownPayloadView::Ended {
-                            reason: safety::ModeEnd::Expired,
-                            ..
-                        },
-                    ..
-                } => ended = true,
-                CycleEvent::UnknownPayload { .. } | CycleEvent::State(_) => {}
-                other => safety_events.push(other),
-            }
-        }
-    }
+    let (ended, safety_events) = expiry_and_safety_events(&mut rig, 2500);
     assert!(!ended && rig.processor.payload_unknown(), "expired early");
     assert!(safety_events.is_empty(), "{safety_events:?}");
-    for _ in 0..1000 {
-        for e in rig.cycle() {
-            match e {
-                CycleEvent::UnknownPayload {
-                    view:
-                        fri_service::service::output::UnknownPayloadView::Ended {
-                            reason: safety::ModeEnd::Expired,
-                            ..
-                        },
-                    ..
-                } => ended = true,
-                CycleEvent::UnknownPayload { .. } | CycleEvent::State(_) => {}
-                other => safety_events.push(other),
-            }
-        }
-    }
+    let (ended, safety_events) = expiry_and_safety_events(&mut rig, 1000);
     assert!(ended && !rig.processor.payload_unknown());
     assert!(stopped_by_collision(&safety_events), "{safety_events:?}");
 }

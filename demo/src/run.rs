@@ -1,7 +1,7 @@
 //! `fri-service demo`: the paper's pick-estimate-and-move experiment against the embedded mock
 //! robot, through the real service and its operator socket.
 //!
-//! 1. Tare: the 10-pose centred pattern (start pose first and last, D-optimal poses within ±5°)
+//! 1. Tare: the 10-pose centred pattern (start pose first and last, D-optimal poses within ±7°)
 //!    without payload (controller run 1).
 //! 2. Estimate: the same pattern with the paper's 3.028 kg payload at (0, 0, 0.119) m in frame 7
 //!    (controller run 2: the payload is attached while the arm is parked), applied to the observer;
@@ -321,7 +321,7 @@ async fn phases(
     // 1. Tare.
     say(
         opts,
-        "[1/4] tare: 10 poses (centred pattern, ±5°), no payload ...",
+        "[1/4] tare: 10 poses (centred pattern, ±7°), no payload ...",
     );
     let driver = mock_robot::spawn_new(
         sim(opts.seed, false),

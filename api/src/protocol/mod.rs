@@ -35,7 +35,7 @@ pub enum Command {
         /// Pattern increment, degrees (default from config, 7).
         #[serde(default)]
         step_deg: Option<f64>,
-        /// Pose pattern (default `paper`).
+        /// Pose pattern (default `[estimation] pattern`, `centred`).
         #[serde(default)]
         pattern: Option<crate::pattern::PatternKind>,
         /// Store the tare even when its samples see a load (default false: such a tare is
@@ -55,7 +55,7 @@ pub enum Command {
         /// Pattern increment, degrees (default from config, 7).
         #[serde(default)]
         step_deg: Option<f64>,
-        /// Pose pattern (default `paper`).
+        /// Pose pattern (default `[estimation] pattern`, `centred`).
         #[serde(default)]
         pattern: Option<crate::pattern::PatternKind>,
         /// Subtract the stored tare (default: when one is stored for the same poses).

@@ -15,7 +15,7 @@ use tracing::warn;
 use super::messages::{CollisionMessage, PayloadEstimate, RobotState};
 use super::publisher::{IpcError, IpcNames, Publisher};
 
-/// Messages queued per publisher thread (≈ 0.1 s of state at 1 kHz... plus headroom).
+/// Messages queued per publisher thread: about 1 s of state at 1 kHz.
 const QUEUE: usize = 1024;
 
 #[allow(clippy::large_enum_variant)] // by value on purpose: no allocation per message

@@ -178,10 +178,9 @@ pub struct StateStore {
 
 const PAYLOAD_FILE: &str = "payload.json";
 const TARE_FILE: &str = "tare.json";
-const CALIBRATION_FILE: &str = "calibration.json";
 const MONITOR_FILE: &str = "monitor.json";
 /// The state files (their temporary files are cleaned at open).
-const STATE_FILES: [&str; 4] = [PAYLOAD_FILE, TARE_FILE, CALIBRATION_FILE, MONITOR_FILE];
+const STATE_FILES: [&str; 3] = [PAYLOAD_FILE, TARE_FILE, MONITOR_FILE];
 
 impl StateStore {
     /// Opens (and creates if missing) the state directory, checking it and its parents
@@ -220,19 +219,6 @@ impl StateStore {
     /// Persists the tare samples (`None` clears them).
     pub fn save_tare(&self, tare: Option<&Tare>) -> Result<(), PersistError> {
         self.save(TARE_FILE, tare)
-    }
-
-    /// Loads the controller-model calibration (opaque JSON produced by the estimator).
-    pub fn load_calibration(&self) -> Result<Option<serde_json::Value>, PersistError> {
-        self.load(CALIBRATION_FILE)
-    }
-
-    /// Persists the calibration (`None` clears it).
-    pub fn save_calibration(
-        &self,
-        calibration: Option<&serde_json::Value>,
-    ) -> Result<(), PersistError> {
-        self.save(CALIBRATION_FILE, calibration)
     }
 
     /// Loads the collision monitor's stored settings; `None` when never configured.

@@ -2,9 +2,10 @@
 //! state to tokio and iceoryx2, the operator workflows and the command handler.
 //!
 //! Data path per cycle (architecture.md): `fri::endpoint` thread receives and validates the
-//! measurement → [`rt::CycleProcessor`] (observer step, reaction, motion, handshake) → reply;
-//! the cycle's state goes through a bounded queue to the [`fanout`] thread, which feeds the
-//! tokio side ([`stream::Shared`]) and iceoryx2. Operator requests go back through a bounded
+//! measurement → [`cycle::CycleProcessor`] (observer step, reaction, motion, handshake) →
+//! reply; the cycle's events and state go through a bounded queue to the stream thread
+//! ([`stream::spawn`], `fri-stream`), which feeds the tokio side ([`stream::Shared`]), the
+//! audit thread and iceoryx2's publishing thread. Operator requests go back through a bounded
 //! queue read with `try_recv` by the processor.
 
 pub mod core;

@@ -164,11 +164,6 @@ impl Endpoint {
         })
     }
 
-    /// A sender for other threads (bounded; use `try_send` on it).
-    pub fn command_sender(&self) -> SyncSender<EndpointMessage> {
-        self.commands.clone()
-    }
-
     /// True while the loop runs.
     pub fn is_running(&self) -> bool {
         self.thread.as_ref().is_some_and(|t| !t.is_finished())

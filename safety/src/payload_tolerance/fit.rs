@@ -39,6 +39,19 @@ pub(crate) fn weights<const N: usize>(thresholds: &SVector<f64, N>) -> SVector<f
     thresholds.map(|t| if t > 0.0 { 1.0 / (t * t) } else { 0.0 })
 }
 
+/// Two unit vectors that span the plane normal to the unit vector `u` (with `u` a right-handed
+/// frame): the directions a centre of mass can move without changing its gravity torque's
+/// height along `u`.
+pub(crate) fn normal_plane(u: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let helper = if u.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let e1 = u.cross(&helper).normalize();
+    (e1, u.cross(&e1))
+}
+
 /// θ = T·x for the cone coordinates x = (m, w) of one pose: w = (α, β) spans the plane normal
 /// to gravity (`gravity_in_last`, unit, last DH frame), and the centre of mass's height along
 /// gravity, which no torque at this pose reveals, is put at the flange point's.
@@ -46,14 +59,7 @@ pub(crate) fn single_pose_frame(
     flange: &Vector3<f64>,
     gravity_in_last: &Vector3<f64>,
 ) -> Matrix4x3<f64> {
-    let u = gravity_in_last;
-    let helper = if u.x.abs() < 0.9 {
-        Vector3::x()
-    } else {
-        Vector3::y()
-    };
-    let e1 = u.cross(&helper).normalize();
-    let e2 = u.cross(&e1);
+    let (e1, e2) = normal_plane(gravity_in_last);
     let mut t = Matrix4x3::zeros();
     t[(0, 0)] = 1.0;
     t.fixed_view_mut::<3, 1>(1, 0).copy_from(flange);

@@ -13,7 +13,7 @@
 
 use nalgebra::{Matrix4, SMatrix, SVector, Vector3, Vector4};
 
-use super::fit::to_full_coordinates;
+use super::fit::{normal_plane, to_full_coordinates};
 use super::plausible::{FlangeLoadBounds, inside};
 
 /// Eigenvalues of a pin's information at or below this share of the largest leave their
@@ -140,14 +140,7 @@ impl PinnedLoad {
         let m = self.parameters[0];
         let centre = self.com().unwrap_or(*flange);
         self.mass_tolerance_kg = undetected(&Vector4::new(1.0, centre.x, centre.y, centre.z));
-        let u = gravity_in_last;
-        let helper = if u.x.abs() < 0.9 {
-            Vector3::x()
-        } else {
-            Vector3::y()
-        };
-        let e1 = u.cross(&helper).normalize();
-        let e2 = u.cross(&e1);
+        let (e1, e2) = normal_plane(gravity_in_last);
         let mut worst: f64 = 0.0;
         for k in 0..COM_DIRECTIONS {
             let a = std::f64::consts::PI * k as f64 / COM_DIRECTIONS as f64;

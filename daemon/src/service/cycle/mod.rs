@@ -390,7 +390,7 @@ impl CycleProcessor {
             self.apply_reaction(r, fri);
         }
         if self.resume_when_clear && !self.monitor.detector().in_contact() {
-            self.resume(fri, Some(ReleaseReason::ContactEnded));
+            self.resume(Some(ReleaseReason::ContactEnded));
         }
 
         let (desired, new_request) = self.command(msr, handshake, request, fri);

@@ -44,7 +44,7 @@ impl CycleProcessor {
                     if self.armed && self.monitor.detector().in_contact() {
                         self.resume_when_clear = true;
                     } else {
-                        self.resume(fri, None);
+                        self.resume(None);
                     }
                 }
                 CycleRequest::SetPayload(p) => {
@@ -113,7 +113,7 @@ impl CycleProcessor {
 
     /// Ends every hold (operator stop, reaction) and readies the reaction for the next onset;
     /// `by_service` says why when no operator request does it now.
-    pub(super) fn resume(&mut self, _fri: FriContext, by_service: Option<ReleaseReason>) {
+    pub(super) fn resume(&mut self, by_service: Option<ReleaseReason>) {
         let was = self.is_holding();
         self.resume_when_clear = false;
         self.operator_stop = false;

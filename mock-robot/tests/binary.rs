@@ -367,7 +367,9 @@ fn mock_robot_control_hands_the_running_simulator_a_payload_and_says_what_it_did
     assert_eq!(outputs[1].status.code(), Some(1));
     let refused = String::from_utf8_lossy(&outputs[1].stderr);
     assert!(
-        refused.contains("mass_kg: 99 is out of range; a payload weighs more than 0 and at most 14 kg"),
+        refused.contains(
+            "mass_kg: 99 is out of range; a payload weighs more than 0 and at most 14 kg"
+        ),
         "{refused}"
     );
     assert!(stderr.contains("payload attached: 2.000 kg"), "{stderr}");

@@ -1173,13 +1173,13 @@ fn plot_fig6(
                 "(a) Controller's external-torque estimate (FRI estExtJntTrq), payload not declared",
                 "estExtJntTrq [Nm]",
                 fri,
-                &onsets_of.fri,
+                onsets_of.fri,
             ),
             panel(
                 "(b) Momentum-observer residual without payload compensation",
                 "r [Nm]",
                 uncompensated,
-                &onsets_of.uncompensated,
+                onsets_of.uncompensated,
             ),
             Panel {
                 thresholds: scheduled_lines,
@@ -1187,7 +1187,7 @@ fn plot_fig6(
                     "(c) Residual, estimated payload compensated (eq. 48 and its inertia); calibrated θⱼ(t), 1 false alarm/10 h",
                     "r [Nm]",
                     compensated,
-                    &onsets_of.compensated,
+                    onsets_of.compensated,
                 )
             },
         ],

@@ -27,6 +27,8 @@ pub use bridge::{BridgeError, run};
 /// is needed). `RUST_LOG=info` shows everything again.
 pub const DEFAULT_LOG_FILTER: &str = "info,rustdds=warn,rustdds::network::udp_sender=error,ros2_client=warn,ros2_client::distributions=error";
 
+pub use config::BridgeConfig;
+
 #[cfg(test)]
 mod log_filter_tests {
     #[test]
@@ -34,4 +36,3 @@ mod log_filter_tests {
         assert!(tracing_subscriber::EnvFilter::try_new(super::DEFAULT_LOG_FILTER).is_ok());
     }
 }
-pub use config::BridgeConfig;

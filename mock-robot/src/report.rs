@@ -3,13 +3,47 @@
 //! measured pose (gravity, mass matrix, Jacobian, frames, estimated external torques and wrench).
 
 use dynamics::{Data, Model};
-use fri::wire::RobotData;
+use fri::wire::{
+    ControlStrategy, InterfaceInfo, InterfaceState, InterfaceStatistics, Measurement,
+    Quality as WireQuality, RobotData, RobotStatus,
+};
 use nalgebra::{Isometry3, SMatrix};
 
-use crate::joints::JointVector;
+use crate::joints::{JOINTS, JointVector};
 
 /// Drive temperature reported in `robot.temperature`, °C.
 pub const REPORTED_TEMPERATURE_C: f64 = 35.0;
+
+/// The measurement a controller starts from (a simulation's or a replay's): monitor mode,
+/// quality UNACCEPTABLE until answers arrive, no answers yet (miss rate 1), drives powered in
+/// joint position control; `cycle_s` the FRI period, s.
+pub(crate) fn initial_measurement(cycle_s: f64) -> Measurement {
+    Measurement {
+        interface: InterfaceInfo {
+            timestamp: 0.0,
+            state: InterfaceState::Monitor,
+            quality: WireQuality::Unacceptable,
+            desired_msr_sample_time: cycle_s,
+            desired_cmd_sample_time: cycle_s,
+            safety_limits: 1.0,
+            statistics: InterfaceStatistics {
+                answer_rate: 0.0,
+                latency: 0.0,
+                jitter: 0.0,
+                miss_rate: 1.0,
+                miss_counter: 0,
+            },
+        },
+        robot: RobotStatus {
+            power: 0x7F,
+            control: ControlStrategy::Position,
+            error: 0,
+            warning: 0,
+            temperature: [REPORTED_TEMPERATURE_C; JOINTS],
+        },
+        ..Measurement::default()
+    }
+}
 
 /// The joint state a measurement reports, and the set-point the controller holds.
 #[derive(Debug, Clone, Copy)]

@@ -18,10 +18,7 @@ mod mcap;
 use std::path::Path;
 
 use dynamics::{Data, Model};
-use fri::wire::{
-    ControlStrategy, InterfaceInfo, InterfaceState, InterfaceStatistics, KrlData, Measurement,
-    Quality as WireQuality, RobotStatus,
-};
+use fri::wire::{InterfaceState, KrlData, Measurement};
 
 pub use self::csv::{MAX_COLUMNS, MAX_LINE_BYTES};
 pub use self::mcap::{MAX_CHUNK_BYTES, TOPIC};
@@ -33,10 +30,10 @@ pub use log::{
 
 use crate::config::ControllerSpec;
 use crate::controller::{Controller, ControllerEvent, EventKind, EventQueue};
-use crate::joints::{JOINTS, JointVector};
+use crate::joints::JointVector;
 use crate::krl::{FriState, KrlEvent, KrlProgram};
 use crate::link::{FriLink, ReceiveCounters};
-use crate::report::{REPORTED_TEMPERATURE_C, Reading, write_robot_data};
+use crate::report::{Reading, write_robot_data};
 use crate::simulation::Simulation;
 use crate::stats::{Quality, Statistics};
 
@@ -102,31 +99,7 @@ impl Replay {
             model,
             mirrored: sample.q,
             events: EventQueue::new(),
-            measurement: Measurement {
-                interface: InterfaceInfo {
-                    timestamp: 0.0,
-                    state: InterfaceState::Monitor,
-                    quality: WireQuality::Unacceptable,
-                    desired_msr_sample_time: cycle_s,
-                    desired_cmd_sample_time: cycle_s,
-                    safety_limits: 1.0,
-                    statistics: InterfaceStatistics {
-                        answer_rate: 0.0,
-                        latency: 0.0,
-                        jitter: 0.0,
-                        miss_rate: 1.0,
-                        miss_counter: 0,
-                    },
-                },
-                robot: RobotStatus {
-                    power: 0x7F,
-                    control: ControlStrategy::Position,
-                    error: 0,
-                    warning: 0,
-                    temperature: [REPORTED_TEMPERATURE_C; JOINTS],
-                },
-                ..Measurement::default()
-            },
+            measurement: crate::report::initial_measurement(cycle_s),
             log,
         };
         replay.build_measurement();

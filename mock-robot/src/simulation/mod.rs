@@ -22,16 +22,12 @@ mod timeline;
 mod truth;
 
 use dynamics::{Data, Model};
-use fri::wire::{
-    CMD_LEN, Command, ControlStrategy, InterfaceInfo, InterfaceState, InterfaceStatistics, KrlData,
-    Measurement, Quality as WireQuality, RobotStatus,
-};
+use fri::wire::{CMD_LEN, Command, ControlStrategy, InterfaceState, KrlData, Measurement};
 
 use crate::config::{PayloadAction, SimulationConfig};
 use crate::controller::{Controller, ControllerEvent, EventKind, EventQueue};
 use crate::error::SimError;
 use crate::faults::FaultCounters;
-use crate::joints::JOINTS;
 use crate::krl::{CommandView, FriState, KrlEvent, KrlProgram, REQUEST_ID_INDEX, Strategy};
 use crate::link::FriLink;
 use crate::models::perturbed_model;
@@ -131,31 +127,7 @@ impl Simulation {
             mirrored: q,
             timeline: Timeline::new(&config),
             end_s,
-            measurement: Measurement {
-                interface: InterfaceInfo {
-                    timestamp: 0.0,
-                    state: InterfaceState::Monitor,
-                    quality: WireQuality::Unacceptable,
-                    desired_msr_sample_time: cycle_s,
-                    desired_cmd_sample_time: cycle_s,
-                    safety_limits: 1.0,
-                    statistics: InterfaceStatistics {
-                        answer_rate: 0.0,
-                        latency: 0.0,
-                        jitter: 0.0,
-                        miss_rate: 1.0,
-                        miss_counter: 0,
-                    },
-                },
-                robot: RobotStatus {
-                    power: 0x7F,
-                    control: ControlStrategy::Position,
-                    error: 0,
-                    warning: 0,
-                    temperature: [REPORTED_TEMPERATURE_C; JOINTS],
-                },
-                ..Measurement::default()
-            },
+            measurement: crate::report::initial_measurement(cycle_s),
             config,
         };
         // The position controller has been holding the pose: its integral carries what the

@@ -126,6 +126,8 @@ async fn fri_ctl_record_prints_the_full_path_in_the_configured_directory() {
     c.state.record_dir = Some(dir.path().join("rec"));
     let h = InProcess::start(c).await.unwrap();
     let driver = controller(&h);
+    // A recording needs a live controller: start it once the service has heard one.
+    wait_connected(&mut h.client().await.unwrap()).await;
     let socket = h.socket.clone();
     let out = tokio::task::spawn_blocking(move || {
         std::process::Command::new(env!("CARGO_BIN_EXE_fri-ctl"))

@@ -232,8 +232,10 @@ impl std::fmt::Display for EstimateProblem {
 pub enum TareReference {
     /// The stored tare at the same poses (taken after the last controller restart).
     PreviousTare,
-    /// The controller's gravity vector (no usable stored tare).
+    /// The controller's gravity vector (no usable stored tare, the nominal model).
     ControllerGravity,
+    /// The identified arm's gravity and offsets (no usable stored tare, `robot.calibration`).
+    IdentifiedModel,
 }
 
 impl TareReference {
@@ -242,6 +244,7 @@ impl TareReference {
         match self {
             TareReference::PreviousTare => "the stored tare at the same poses",
             TareReference::ControllerGravity => "the controller's gravity vector",
+            TareReference::IdentifiedModel => "the identified arm's gravity and offsets",
         }
     }
 }

@@ -54,7 +54,17 @@ async fn start(config: Config) -> Running {
         ServerConfig::loopback(service.fri, pacing),
     )
     .unwrap();
-    Running { service, driver }
+    // Returns once the service has heard the controller: a `record` before that is refused
+    // ("no measurement from the controller yet"), a race a CI run once lost.
+    let mut c = Client::connect(&service.socket).await.unwrap();
+    for _ in 0..1000 {
+        let s = c.call(Command::Status, |_, _| {}).await.unwrap().unwrap();
+        if s["connected"] == true {
+            return Running { service, driver };
+        }
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+    panic!("the service never heard the simulated controller");
 }
 
 impl Running {

@@ -901,9 +901,12 @@ fn scheduled_residuals(
     schedule: &fri_api::results::ThresholdSchedule,
     t0: f64,
 ) -> anyhow::Result<(Vec<V7>, Vec<V7>, Vec<f64>)> {
-    let mut monitor: CollisionMonitor<7> =
-        fri_service::service::build_scheduled_monitor(config, model.clone(), Some(schedule))
-            .context("observer configuration")?;
+    let mut monitor: CollisionMonitor<7> = fri_service::service::build_scheduled_monitor(
+        config,
+        &fri_service::service::arm::ArmModel::nominal(model.clone()),
+        Some(schedule),
+    )
+    .context("observer configuration")?;
     monitor
         .set_payload(payload)
         .map_err(|e| anyhow::anyhow!("payload rejected by the observer: {e}"))?;

@@ -60,15 +60,16 @@ fn spline_curvature(t: &[f64], x: &[f64]) -> Vec<f64> {
     m
 }
 
-/// The spline of one piece: per joint the curvatures at the rows.
-struct Spline<'a, const N: usize> {
-    t: &'a [f64],
-    q: &'a [SVector<f64, N>],
+/// The natural cubic spline through recorded positions: per joint the curvatures at the rows
+/// (computed once; evaluating is allocation-free).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Spline<const N: usize> {
     m: Vec<SVector<f64, N>>,
 }
 
-impl<'a, const N: usize> Spline<'a, N> {
-    fn new(t: &'a [f64], q: &'a [SVector<f64, N>]) -> Self {
+impl<const N: usize> Spline<N> {
+    /// The spline through positions `q` (rad) at stamps `t` (s, increasing).
+    pub fn new(t: &[f64], q: &[SVector<f64, N>]) -> Self {
         let mut m = vec![SVector::<f64, N>::zeros(); t.len()];
         for j in 0..N {
             let x: Vec<f64> = q.iter().map(|v| v[j]).collect();
@@ -76,16 +77,23 @@ impl<'a, const N: usize> Spline<'a, N> {
                 mk[j] = c;
             }
         }
-        Self { t, q, m }
+        Self { m }
     }
 
-    /// Position and velocity at `at` in interval k (t_k ≤ at ≤ t_{k+1}).
-    fn at(&self, k: usize, at: f64) -> (SVector<f64, N>, SVector<f64, N>) {
-        let h = self.t[k + 1] - self.t[k];
-        let (a, b) = (self.t[k + 1] - at, at - self.t[k]);
+    /// Position (rad) and velocity (rad/s) at `at` (s) in interval k (t_k ≤ at ≤ t_{k+1}) of
+    /// the stamps `t` and positions `q` the spline was built on.
+    pub fn at(
+        &self,
+        t: &[f64],
+        q: &[SVector<f64, N>],
+        k: usize,
+        at: f64,
+    ) -> (SVector<f64, N>, SVector<f64, N>) {
+        let h = t[k + 1] - t[k];
+        let (a, b) = (t[k + 1] - at, at - t[k]);
         let (m0, m1) = (&self.m[k], &self.m[k + 1]);
-        let c0 = self.q[k] / h - m0 * (h / 6.0);
-        let c1 = self.q[k + 1] / h - m1 * (h / 6.0);
+        let c0 = q[k] / h - m0 * (h / 6.0);
+        let c1 = q[k + 1] / h - m1 * (h / 6.0);
         let q = m0 * (a * a * a / (6.0 * h)) + m1 * (b * b * b / (6.0 * h)) + c0 * a + c1 * b;
         let qd = m1 * (b * b / (2.0 * h)) - m0 * (a * a / (2.0 * h)) + c1 - c0;
         (q, qd)
@@ -104,7 +112,7 @@ fn play_piece<const N: usize>(tr: &Trajectory<N>, period_s: f64) -> Vec<PlayedSa
         while k + 2 < n && tr.t[k + 1] < t {
             k += 1;
         }
-        let (q, qd) = spline.at(k, t);
+        let (q, qd) = spline.at(&tr.t, &tr.q, k, t);
         let tau = interpolate(&tr.t, &tr.tau, t, &mut hint);
         out.push(PlayedSample { t, q, qd, tau });
     }

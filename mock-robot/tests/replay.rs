@@ -29,14 +29,23 @@ fn rows(path: &Path) -> Vec<Vec<f64>> {
         .collect()
 }
 
-/// Column `c` of the rows linearly interpolated at `t` s.
-fn lerp(rows: &[Vec<f64>], t: f64, c: usize) -> f64 {
-    let i = rows.iter().rposition(|r| r[0] <= t).unwrap();
-    if i + 1 == rows.len() {
-        return rows[i][c];
-    }
-    let (a, b) = (&rows[i], &rows[i + 1]);
-    a[c] + (b[c] - a[c]) * (t - a[0]) / (b[0] - a[0])
+/// Cycle `k` (1 ms) of `rows` (run 2's layout) as the offline tools play them
+/// (`estimator::replay::play`: the rows' clock, the positions' spline, torques linear).
+fn played(rows: &[Vec<f64>], k: usize) -> estimator::replay::PlayedSample<7> {
+    let v = |c: usize| -> Vec<nalgebra::SVector<f64, 7>> {
+        rows.iter()
+            .map(|r| nalgebra::SVector::<f64, 7>::from_fn(|i, _| r[c + i]))
+            .collect()
+    };
+    let log = estimator::motion::RecordedLog {
+        trajectory: estimator::motion::Trajectory {
+            t: rows.iter().map(|r| r[0]).collect(),
+            q: v(1),
+            tau: v(22),
+        },
+        derivatives: None,
+    };
+    estimator::replay::play(&log, 0.001).unwrap()[0][k]
 }
 
 /// Equal up to the f32 rounding of the wire.
@@ -58,8 +67,13 @@ fn run_2_replays_in_lockstep_with_the_logs_values_and_the_nominal_gravity() {
     assert_eq!(replay.log().rows(), rows.len());
     assert_eq!(replay.log().derivatives(), Derivatives::Recorded);
     let total = replay.total_cycles();
-    let duration = rows.last().unwrap()[0];
-    assert_eq!(total, (duration / 0.001).floor() as u64 + 1);
+    // The offline tools' player on the same file: the rows' own clock, the positions' spline.
+    let log =
+        estimator::motion::read_recorded_csv::<7, _>(std::fs::File::open(run2()).unwrap()).unwrap();
+    let played = estimator::replay::play(&log, 0.001).unwrap();
+    assert_eq!(played.len(), 1);
+    let played = &played[0];
+    assert_eq!(total, played.len() as u64);
     // Cycles whose measurement is checked: the first (row 0 exactly), between rows, the last.
     let checked = [0u64, 1, 2, 7, 777, 5003, 12_345, 20_000, total - 1];
     let mut seen: Vec<(u64, Measurement)> = Vec::new();
@@ -85,7 +99,8 @@ fn run_2_replays_in_lockstep_with_the_logs_values_and_the_nominal_gravity() {
             m.interface.timestamp
         );
         assert_eq!(m.interface.state, InterfaceState::Monitor);
-        let q = nalgebra::SVector::<f64, 7>::from_fn(|j, _| lerp(&rows, t, 1 + j));
+        // positions and torques as the offline player plays them
+        let q = played[*k as usize].q;
         let g = dynamics::compute_generalized_gravity(&model, &mut data, &q);
         for j in 0..7 {
             let (q_wire, tau_wire) = (m.data.msr_jnt_pos[j], m.data.msr_jnt_trq[j]);
@@ -95,7 +110,7 @@ fn run_2_replays_in_lockstep_with_the_logs_values_and_the_nominal_gravity() {
                 j + 1,
                 q[j]
             );
-            let tau = lerp(&rows, t, 22 + j);
+            let tau = played[*k as usize].tau[j];
             assert!(
                 on_the_wire(tau_wire, tau),
                 "cycle {k} tau{}: {tau_wire} vs {tau}",
@@ -185,7 +200,7 @@ fn the_services_log_layout_replays_by_column_name() {
     assert_eq!(replay.log().derivatives(), Derivatives::VelocityRecorded);
     // The replay's time 0 is the log's first stamp.
     let m = datagram(&Client::new().run(&mut replay, 500));
-    let q = lerp(&rows, rows[0][0] + 0.5, 4);
+    let q = played(&rows, 500).q[3];
     assert!(
         on_the_wire(m.data.msr_jnt_pos[3], q),
         "{} vs {q}",
@@ -237,14 +252,23 @@ fn an_mcap_recording_replays_its_joint_states() {
     assert_eq!(replay.log().rows(), 200);
     assert_eq!(replay.log().derivatives(), Derivatives::VelocityRecorded);
     let m = datagram(&Client::new().run(&mut replay, 300));
-    // Stamps went through whole nanoseconds: compare within a nanosecond's motion.
-    let q = lerp(&rows, 0.3, 2);
+    // Stamps went through whole nanoseconds: play the rows as stamped.
+    let stamped: Vec<Vec<f64>> = rows
+        .iter()
+        .map(|r| {
+            let mut r = r.clone();
+            r[0] = Time::from_seconds(10.0 + r[0]).as_seconds();
+            r
+        })
+        .collect();
+    let sample = played(&stamped, 300);
+    let q = sample.q[1];
     assert!(
         (m.data.msr_jnt_pos[1] - q).abs() < 1e-6,
         "{} vs {q}",
         m.data.msr_jnt_pos[1]
     );
-    let tau = lerp(&rows, 0.3, 27);
+    let tau = sample.tau[5];
     assert!(
         on_the_wire(m.data.msr_jnt_trq[5], tau),
         "{} vs {tau}",

@@ -232,6 +232,7 @@ fn monitor_status(name: String, s: &StatusResult) -> DiagnosticStatus {
                     .as_ref()
                     .map_or("none".to_owned(), unknown_payload_message),
             ),
+            KeyValue::new("robot model", robot_model(s)),
             KeyValue::new(
                 "unknown payload expires at (s)",
                 s.unknown_payload
@@ -240,6 +241,17 @@ fn monitor_status(name: String, s: &StatusResult) -> DiagnosticStatus {
                     .unwrap_or(f64::NAN),
             ),
         ],
+    }
+}
+
+/// The model the service predicts torque with: `lwr4 nominal`, or `lwr4 identified <file>`.
+fn robot_model(s: &StatusResult) -> String {
+    match &s.robot {
+        None => "unknown (service older than this field)".to_owned(),
+        Some(r) => match &r.calibration {
+            None => format!("{} nominal (no robot.calibration)", r.model),
+            Some(c) => format!("{} identified {}", r.model, c.path),
+        },
     }
 }
 
@@ -339,5 +351,43 @@ mod tests {
         let m = unknown_payload_message(&u);
         assert!(m.contains("pinned at 3.028 kg (grasp-window)"), "{m}");
         assert!(m.contains("beyond 0.900 kg is a contact"), "{m}");
+    }
+
+    #[test]
+    fn the_monitor_status_names_the_robot_model_in_force() {
+        let mut s: StatusResult = serde_json::from_value(serde_json::json!({
+            "connected": true, "residual_valid": true, "fri": null, "cycle": 5, "time_s": 0.005,
+            "q": null, "qd": null, "tau": null, "gravity": null, "tau_ext": null,
+            "residual": null, "command_mode": false, "stopped": false, "collision": false,
+            "observer_fault": false, "moving": false, "payload": null, "tare_samples": null,
+            "monitor": {"armed": true, "thresholds": ([6.0; 7]), "gains": ([400.0; 7])},
+            "robot": {"model": "lwr4", "calibration": null},
+        }))
+        .unwrap();
+        let value = |s: &StatusResult| {
+            monitor_status("m".into(), s)
+                .values
+                .into_iter()
+                .find(|v| v.key == "robot model")
+                .map(|v| v.value)
+        };
+        assert_eq!(
+            value(&s).as_deref(),
+            Some("lwr4 nominal (no robot.calibration)")
+        );
+        if let Some(r) = &mut s.robot {
+            r.calibration = Some(fri_api::results::ArmCalibration {
+                path: "/etc/fri-service/arm.toml".into(),
+                logs: vec![],
+                duration_s: 25.0,
+                residual_rms_nominal: vec![],
+                heldout_rms: vec![],
+                offset: vec![],
+            });
+        }
+        assert_eq!(
+            value(&s).as_deref(),
+            Some("lwr4 identified /etc/fri-service/arm.toml")
+        );
     }
 }

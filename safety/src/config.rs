@@ -39,7 +39,8 @@ pub struct ObserverConfig<const N: usize> {
     pub velocity_filter: VelocityFilter,
     /// Source of the unloaded gravity vector.
     pub gravity_source: GravitySource,
-    /// Optional friction model subtracted from the torque input (for motor-side torques).
+    /// Optional joint torque terms (offset, friction) subtracted from the torque input at the
+    /// observer's velocity (an identified arm's, or motor-side friction).
     pub friction: Option<JointFriction<N>>,
     /// Smallest accepted time step as a fraction of the nominal period (default 0.5).
     pub min_dt_factor: f64,

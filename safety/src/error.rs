@@ -35,8 +35,10 @@ pub enum ConfigError {
     /// Velocity filter cut-off not finite/positive.
     #[error("velocity filter cut-off must be finite and positive")]
     VelocityFilter,
-    /// Friction parameters negative or non-finite.
-    #[error("friction parameters must be finite, non-negative, with positive smoothing velocity")]
+    /// Joint torque terms (offset, friction) non-finite, or a smoothing velocity not positive.
+    #[error(
+        "joint torque terms (offset, friction) must be finite, with a positive smoothing velocity"
+    )]
     Friction,
     /// Stale limit of zero samples.
     #[error("stale limit must be at least one sample")]

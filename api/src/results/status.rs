@@ -78,6 +78,36 @@ pub struct StatusResult {
     /// from older daemons).
     #[serde(default)]
     pub unknown_payload: Option<super::expect_payload::UnknownPayload>,
+    /// The robot model the service predicts torque with (absent from older daemons).
+    #[serde(default)]
+    pub robot: Option<RobotModelStatus>,
+}
+
+/// The robot model the observer, the detector and the estimate against a model use.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RobotModelStatus {
+    /// Built-in model name (`lwr4`).
+    pub model: String,
+    /// The identified arm in force (`robot.calibration`; `null`: the nominal model).
+    pub calibration: Option<ArmCalibration>,
+}
+
+/// An identified arm as the service loaded it (`fri-ctl offline identify --out FILE`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ArmCalibration {
+    /// The file, as configured.
+    pub path: String,
+    /// The recordings it was identified from, as given to `identify`.
+    pub logs: Vec<String>,
+    /// Recorded time the identification used, s.
+    pub duration_s: f64,
+    /// Residual RMS of the nominal model on those recordings, Nm per joint.
+    pub residual_rms_nominal: Vec<f64>,
+    /// Held-out residual RMS of the identified model (cross-validation), Nm per joint: what it
+    /// still gets wrong on data it was not fitted to.
+    pub heldout_rms: Vec<f64>,
+    /// Per-joint torque offset the service subtracts, Nm.
+    pub offset: Vec<f64>,
 }
 
 /// The FRI endpoint's snapshot as `status` reports it (enum values as their Rust names).

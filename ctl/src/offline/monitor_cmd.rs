@@ -15,7 +15,7 @@ use serde_json::json;
 
 use super::args::MonitorArgs;
 use super::monitor_run::{
-    Run, Setup, build, forces, identified, median, observer_model, per_joint, played, run, summary,
+    Run, Setup, arm_model, build, forces, identified, median, per_joint, played, run, summary,
 };
 use super::report::{force_rows, table_row};
 use super::thresholds::ThresholdsFile;
@@ -196,7 +196,7 @@ pub fn monitor(a: &MonitorArgs, out: &mut dyn Write) -> anyhow::Result<()> {
             )
         }
     };
-    let model = observer_model(&nominal, arm.as_ref());
+    let model = arm_model(&nominal, arm.as_ref());
     let logs = played(&a.log, &nominal, setup.period_s)?;
     let at_rest = forces(&nominal, &setup.thresholds);
     let mut reports = Vec::new();
@@ -213,7 +213,7 @@ pub fn monitor(a: &MonitorArgs, out: &mut dyn Write) -> anyhow::Result<()> {
     );
     for (name, pieces) in &logs {
         let mut m = build(&model, &setup)?;
-        let r = run(&mut m, pieces, arm.as_ref(), setup.period_s, None);
+        let r = run(&mut m, pieces, setup.period_s, None);
         let theta_median = V7::from_fn(|j, _| median(&r.thresholds[j]));
         let at_median = forces(&nominal, &theta_median);
         text += &monitor_report(name, &r, &setup, &at_rest, &at_median, setup.period_s);

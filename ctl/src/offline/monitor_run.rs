@@ -1,12 +1,14 @@
 //! The service's own collision monitor over a recorded log: `safety::CollisionMonitor` built as
 //! the service builds it (`fri_service::service::build_scheduled_monitor`: the configured gains,
-//! model gravity, the LWR's link surfaces, the calibrated schedule with the service's ceiling),
+//! model gravity, the LWR's link surfaces, the calibrated schedule with the service's ceiling,
+//! the arm model's joint terms; fri-ctl does not link the daemon),
 //! fed at the FRI period with the log played by `estimator::replay` (positions by a natural
 //! cubic spline through the log's q, torques linear between its samples): the observer, its
 //! velocity filter, warm-up and every threshold are those of the 1 ms loop, which a 200 Hz
 //! recording's own step would not exercise (docs/collision-detection.md, "Real recordings").
-//! With an identified arm, the observer runs on its corrected model and sees the measured
-//! torque minus the arm's offset and friction at the played velocity.
+//! With an identified arm, the observer runs on its corrected model and subtracts the arm's
+//! offset and friction at its own filtered velocity, as the service does with
+//! `robot.calibration` (`fri_service::service::arm`).
 
 use std::path::PathBuf;
 
@@ -18,8 +20,8 @@ use fri_api::results::LinkForce;
 use nalgebra::SVector;
 use safety::calibration::{EnvelopeRecorder, minimum_detectable_force};
 use safety::{
-    CollisionMonitor, Detection, FeatureTracker, GravitySource, MonitorConfig, MotionFeatures,
-    ObserverInput, PayloadCompensation, ReactionPolicy,
+    CollisionMonitor, Detection, FeatureTracker, GravitySource, JointFriction, MonitorConfig,
+    MotionFeatures, ObserverInput, PayloadCompensation, ReactionPolicy,
 };
 
 use super::logs::{read_identified, read_recorded};
@@ -91,9 +93,22 @@ pub(crate) fn identified(
     path.as_ref().map(|p| read_identified(p, model)).transpose()
 }
 
-/// The model the observer runs on: the identified arm's corrected model, or the nominal one.
-pub(crate) fn observer_model(nominal: &Model<7>, arm: Option<&IdentifiedModel<7>>) -> Model<7> {
-    arm.map_or_else(|| nominal.clone(), |m| m.corrected_model().clone())
+/// The arm model the observer runs on, as the service's with `robot.calibration`: the identified
+/// arm's corrected model and its offset and friction, or the nominal model alone.
+pub(crate) fn arm_model(nominal: &Model<7>, arm: Option<&IdentifiedModel<7>>) -> ArmModel {
+    ArmModel {
+        model: arm.map_or_else(|| nominal.clone(), |m| m.corrected_model().clone()),
+        joint_terms: arm.map(<JointFriction<7> as From<&IdentifiedModel<7>>>::from),
+    }
+}
+
+/// The observer's model and the joint terms it subtracts at its own velocity.
+#[derive(Debug, Clone)]
+pub(crate) struct ArmModel {
+    /// The model the observer runs on.
+    pub model: Model<7>,
+    /// Offset and friction subtracted from the measured torque (`None`: the nominal model).
+    pub joint_terms: Option<JointFriction<7>>,
 }
 
 /// Samples skipped after a (re)start before the calibration records: the feature tracker's
@@ -113,11 +128,12 @@ pub(crate) struct Setup {
     pub schedule: Option<fri_api::results::ThresholdSchedule>,
 }
 
-/// The monitor the service would run with `setup` on `model` (see the module docs).
-pub(crate) fn build(model: &Model<7>, setup: &Setup) -> anyhow::Result<CollisionMonitor<7>> {
+/// The monitor the service would run with `setup` on `arm` (see the module docs).
+pub(crate) fn build(arm: &ArmModel, setup: &Setup) -> anyhow::Result<CollisionMonitor<7>> {
     let mut mc = MonitorConfig::<7>::new(setup.period_s, safety::DEFAULT_GAIN);
     mc.observer.gains = setup.gains;
     mc.observer.gravity_source = GravitySource::Model;
+    mc.observer.friction = arm.joint_terms;
     mc.detector.thresholds_nm = setup.thresholds;
     mc.link_surfaces = Some(safety::lwr4_link_surfaces());
     if let Some(s) = &setup.schedule {
@@ -133,7 +149,7 @@ pub(crate) fn build(model: &Model<7>, setup: &Setup) -> anyhow::Result<Collision
         mc.threshold_to_noise = V7::from(s.scale);
     }
     mc.reaction = ReactionPolicy::Stop;
-    CollisionMonitor::new(model.clone(), mc)
+    CollisionMonitor::new(arm.model.clone(), mc)
         .map_err(|e| anyhow::anyhow!("collision monitor settings: {e}"))
 }
 
@@ -171,7 +187,6 @@ pub(crate) struct Run {
 pub(crate) fn run(
     monitor: &mut CollisionMonitor<7>,
     pieces: &[Vec<PlayedSample<7>>],
-    identified: Option<&IdentifiedModel<7>>,
     period_s: f64,
     mut record: Option<&mut EnvelopeRecorder<7>>,
 ) -> Run {
@@ -183,11 +198,7 @@ pub(crate) fn run(
         let mut settle = TRACKER_SETTLE_SAMPLES;
         for s in piece {
             out.samples += 1;
-            let tau = match identified {
-                Some(m) => s.tau - m.joint_torque(&s.qd),
-                None => s.tau,
-            };
-            let o = monitor.step(&ObserverInput::new(s.q, tau, period_s));
+            let o = monitor.step(&ObserverInput::new(s.q, s.tau, period_s));
             if let Some(f) = o.observer.status.fault() {
                 if !o.observer.status.residual_updated() {
                     out.rejected += 1;

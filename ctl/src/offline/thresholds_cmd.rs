@@ -14,9 +14,7 @@ use nalgebra::SVector;
 use safety::calibration::{Calibration, EnvelopeRecorder, FitOptions};
 
 use super::args::CalibrateThresholdsArgs;
-use super::monitor_run::{
-    Setup, build, forces, identified, observer_model, per_joint, played, run,
-};
+use super::monitor_run::{Setup, arm_model, build, forces, identified, per_joint, played, run};
 use super::report::{force_rows, table_row};
 use super::thresholds::{THRESHOLDS_FORMAT, THRESHOLDS_KIND, ThresholdsFile};
 
@@ -81,18 +79,12 @@ pub fn calibrate_thresholds(
         thresholds: in_force,
         schedule: None,
     };
-    let model = observer_model(&nominal, arm.as_ref());
+    let model = arm_model(&nominal, arm.as_ref());
     let logs = played(&a.log, &nominal, a.period_s)?;
     let mut recorder = EnvelopeRecorder::<7>::new();
     for (name, pieces) in &logs {
         let mut m = build(&model, &setup)?;
-        let r = run(
-            &mut m,
-            pieces,
-            arm.as_ref(),
-            a.period_s,
-            Some(&mut recorder),
-        );
+        let r = run(&mut m, pieces, a.period_s, Some(&mut recorder));
         if let Some(c) = r.crossings.first() {
             bail!(
                 "{name}: the monitor detected a contact at t = {:.3} s at the thresholds in force ({:?} Nm): a recording with a contact in it would calibrate the contact away. If nothing touched the arm, raise --thresholds (or use --calibration) and calibrate again",

@@ -5,7 +5,9 @@ use std::io::{self, Write};
 use clap::Args;
 
 use fri_api::protocol::Command;
-use fri_api::results::{RejectionCounters, ResyncKind, ServiceState, StatusResult, StopCause};
+use fri_api::results::{
+    RejectionCounters, ResyncKind, RobotModelStatus, ServiceState, StatusResult, StopCause,
+};
 
 use super::JsonFlag;
 use super::format::{fixed, joint_header, joint_row, joint_row_deg, ms, percent, xyz_mm, yes_no};
@@ -166,6 +168,9 @@ pub(super) fn print(r: &StatusResult, out: &mut dyn Write) -> io::Result<()> {
         Some(n) => writeln!(out, "tare           {n} samples stored")?,
         None => writeln!(out, "tare           none")?,
     }
+    if let Some(robot) = &r.robot {
+        robot_model(robot, out)?;
+    }
     if r.ros2_unauthenticated_commands {
         writeln!(
             out,
@@ -174,6 +179,31 @@ pub(super) fn print(r: &StatusResult, out: &mut dyn Write) -> io::Result<()> {
         )?;
     }
     super::collision::print_monitor(&r.monitor, out)
+}
+
+/// The model the service predicts torque with: nominal, or the identified arm with its held-out
+/// residual next to the nominal model's.
+fn robot_model(r: &RobotModelStatus, out: &mut dyn Write) -> io::Result<()> {
+    match &r.calibration {
+        None => writeln!(
+            out,
+            "robot model    {} nominal (no robot.calibration: the real arm's offsets and friction \
+             stay in the residual)",
+            r.model
+        ),
+        Some(c) => {
+            writeln!(out, "robot model    {} identified, {}", r.model, c.path)?;
+            let list = |v: &[f64]| v.iter().map(|x| fixed(*x, 2)).collect::<Vec<_>>().join(" ");
+            writeln!(
+                out,
+                "               from {} ({} s); residual RMS [Nm] nominal {} → held-out {}",
+                c.logs.join(", "),
+                fixed(c.duration_s, 1),
+                list(&c.residual_rms_nominal),
+                list(&c.heldout_rms)
+            )
+        }
+    }
 }
 
 /// The session's rejected datagrams by reason, non-zero ones only, largest first.
@@ -289,5 +319,39 @@ mod tests {
             "{text}"
         );
         assert!(!text.contains("-0.00"), "{text}");
+    }
+
+    #[test]
+    fn status_names_the_robot_model_and_the_identified_arm() {
+        let mut r = status(zero_rejections());
+        assert!(!text(&r).contains("robot model"), "older daemon: no line");
+        r.robot = Some(RobotModelStatus {
+            model: "lwr4".into(),
+            calibration: None,
+        });
+        assert!(
+            text(&r).contains("robot model    lwr4 nominal"),
+            "{}",
+            text(&r)
+        );
+        r.robot = Some(RobotModelStatus {
+            model: "lwr4".into(),
+            calibration: Some(fri_api::results::ArmCalibration {
+                path: "/etc/fri-service/arm.toml".into(),
+                logs: vec!["run1.csv".into()],
+                duration_s: 25.0,
+                residual_rms_nominal: vec![1.32, 0.77, 0.56, 0.8, 1.31, 0.67, 0.27],
+                heldout_rms: vec![0.2; 7],
+                offset: vec![0.9; 7],
+            }),
+        });
+        let t = text(&r);
+        assert!(
+            t.contains("robot model    lwr4 identified, /etc/fri-service/arm.toml")
+                && t.contains("from run1.csv (25.0 s)")
+                && t.contains("nominal 1.32 0.77")
+                && t.contains("held-out 0.20"),
+            "{t}"
+        );
     }
 }

@@ -111,12 +111,17 @@ impl Default for FriConfig {
 pub struct RobotConfig {
     /// Built-in model name; only `lwr4` (KUKA LWR 4+, 7 joints) is supported by the service.
     pub model: String,
+    /// The arm identified from its own recordings (`fri-ctl offline identify --out FILE`), checked
+    /// against `model` at start: the observer, the detector and the estimate against a model
+    /// predict torque with it. Unset: the nominal model.
+    pub calibration: Option<PathBuf>,
 }
 
 impl Default for RobotConfig {
     fn default() -> Self {
         Self {
             model: "lwr4".to_owned(),
+            calibration: None,
         }
     }
 }

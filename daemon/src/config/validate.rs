@@ -65,6 +65,13 @@ impl Config {
             self.robot.model == "lwr4",
             "only the built-in `lwr4` model is supported by the service",
         )?;
+        if let Some(path) = &self.robot.calibration {
+            check(
+                "robot.calibration",
+                path.file_name().is_some() && !path.as_os_str().is_empty(),
+                "must name a file (an identified-arm TOML file, `fri-ctl offline identify --out`)",
+            )?;
+        }
         let o = &self.observer;
         for j in 0..JOINTS {
             in_range_at("observer.gains", j, o.gains[j], bounds::gain(cycle))

@@ -65,7 +65,10 @@ pub(crate) struct Persistent {
 /// The service (see the module documentation).
 pub struct ServiceCore {
     pub(crate) config: Config,
+    /// The model the observer runs on (the identified arm's corrected one when configured).
     pub(crate) model: Model<7>,
+    /// The arm model in force (`robot.calibration`).
+    pub(crate) arm: super::arm::ArmModel,
     pub(crate) shared: Arc<Shared>,
     pub(crate) rt: SyncSender<CycleRequest>,
     /// The operator's stops, outside `rt` (no queued request delays them).
@@ -148,7 +151,7 @@ impl ServiceCore {
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         config: Config,
-        model: Model<7>,
+        arm: super::arm::ArmModel,
         shared: Arc<Shared>,
         rt: SyncSender<CycleRequest>,
         store: StateStore,
@@ -180,7 +183,8 @@ impl ServiceCore {
         };
         Self {
             config,
-            model,
+            model: arm.observer_model().clone(),
+            arm,
             shared,
             rt,
             stop_latch,

@@ -8,6 +8,7 @@
 //! audit thread and iceoryx2's publishing thread. Operator requests go back through a bounded
 //! queue read with `try_recv` by the processor.
 
+pub mod arm;
 pub mod core;
 pub mod cycle;
 pub mod dispatch;
@@ -38,6 +39,7 @@ use crate::operator::server::{self, AccessPolicy, ServerLimits};
 use crate::operator::stop_socket::{self, StopLimits};
 use crate::persistence::lock::InstanceLock;
 use crate::persistence::{AppliedPayload, StateStore, StoredMonitor};
+use arm::ArmModel;
 use core::{ServiceCore, compensation};
 use cycle::{CycleProcessor, CycleRequest, ProcessorSettings};
 use dispatch::Dispatcher;
@@ -51,26 +53,28 @@ pub const LEAVE_COMMAND_TIMEOUT: Duration = Duration::from_secs(3);
 /// Capacity of the operator → loop queue, requests.
 const REQUEST_QUEUE: usize = 64;
 
-/// Builds the collision monitor from the configuration (unloaded model; the payload is set
-/// separately), with static thresholds.
+/// Builds the collision monitor from the configuration (unloaded nominal `model`; the payload is
+/// set separately), with static thresholds.
 pub fn build_monitor(
     config: &Config,
     model: Model<7>,
 ) -> Result<CollisionMonitor<7>, safety::ConfigError> {
-    build_scheduled_monitor(config, model, None)
+    build_scheduled_monitor(config, &ArmModel::nominal(model), None)
 }
 
-/// Builds the collision monitor from the configuration with the thresholds' motion `schedule`
-/// of a calibration (`collision-calibrate`; its θ0 replaces the configuration's thresholds). The
-/// contact is fitted through the LWR's link surfaces (`safety::ContactIsolator`).
+/// Builds the collision monitor from the configuration on `arm` (its observer model, and its
+/// offset and friction subtracted at the observer's velocity) with the thresholds' motion
+/// `schedule` of a calibration (`collision-calibrate`; its θ0 replaces the configuration's
+/// thresholds). The contact is fitted through the LWR's link surfaces (`safety::ContactIsolator`).
 pub fn build_scheduled_monitor(
     config: &Config,
-    model: Model<7>,
+    arm: &ArmModel,
     schedule: Option<&fri_api::results::ThresholdSchedule>,
 ) -> Result<CollisionMonitor<7>, safety::ConfigError> {
     let mut mc = MonitorConfig::<7>::new(config.fri.cycle_s, safety::DEFAULT_GAIN);
     mc.observer.gains = SVector::from(config.observer.gains);
     mc.observer.gravity_source = GravitySource::Model;
+    mc.observer.friction = arm.joint_terms();
     mc.detector.thresholds_nm = SVector::from(config.observer.thresholds);
     mc.link_surfaces = Some(safety::lwr4_link_surfaces());
     if let Some(s) = schedule {
@@ -91,7 +95,7 @@ pub fn build_scheduled_monitor(
         },
         ReactionMode::Stop | ReactionMode::Report => ReactionPolicy::Stop,
     };
-    CollisionMonitor::new(model, mc)
+    CollisionMonitor::new(arm.observer_model().clone(), mc)
 }
 
 /// `config` with the monitor settings a `collision configure` stored in place of its own
@@ -162,7 +166,16 @@ impl RunningService {
     /// (exclusively) and the endpoint started.
     pub fn start(config: Config) -> anyhow::Result<Self> {
         config.validate()?;
-        let model = dynamics::lwr4();
+        let arm = ArmModel::load(&config.robot, dynamics::lwr4())?;
+        match arm.status().calibration {
+            Some(c) => tracing::info!(
+                calibration = %c.path,
+                heldout_rms_nm = ?c.heldout_rms,
+                offset_nm = ?c.offset,
+                "robot model: the identified arm (robot.calibration)"
+            ),
+            None => tracing::info!("robot model: nominal (no robot.calibration)"),
+        }
         let store = StateStore::open(&config.state.dir)?;
         let lock = InstanceLock::acquire(store.checked_dir())?;
         let payload = store
@@ -225,7 +238,7 @@ impl RunningService {
             .context("starting the stream thread")?;
 
         let schedule = stored_monitor.as_ref().and_then(|m| m.schedule.as_ref());
-        let monitor = build_scheduled_monitor(&effective, model.clone(), schedule)
+        let monitor = build_scheduled_monitor(&effective, &arm, schedule)
             .context("observer configuration")?;
         let settings = ProcessorSettings::from_config(&effective);
         let processor = CycleProcessor::new(settings, monitor, request_rx, event_tx);
@@ -257,7 +270,7 @@ impl RunningService {
         };
         let core = Arc::new(ServiceCore::new(
             config,
-            model,
+            arm,
             shared,
             request_tx,
             store,

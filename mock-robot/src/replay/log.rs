@@ -10,6 +10,8 @@ use super::error::{Column, Location, ReplayError};
 use crate::joints::{JOINTS, JointVector};
 use crate::motion::{POSITION_LIMITS_RAD, VELOCITY_LIMITS_RAD_S};
 use crate::simulation::TORQUE_LIMITS_NM;
+use estimator::motion::{Trajectory, time_base};
+use estimator::replay::Spline;
 
 /// Largest log file read, bytes (2 GiB: about an hour of the service's 1 kHz log).
 pub const MAX_LOG_BYTES: u64 = 2 << 30;
@@ -83,6 +85,8 @@ pub struct RecordedLog {
     qdd: Vec<JointVector>,
     tau: Vec<JointVector>,
     derivatives: Option<Derivatives>,
+    /// The natural cubic spline through the positions (set by `finish`).
+    spline: Option<Spline<JOINTS>>,
 }
 
 /// One row as a reader found it.
@@ -192,6 +196,7 @@ impl RecordedLog {
             qdd: Vec::new(),
             tau: Vec::new(),
             derivatives: None,
+            spline: None,
         }
     }
 
@@ -257,6 +262,18 @@ impl RecordedLog {
                 rows: self.t.len(),
             });
         }
+        // The rows' own clock, as the offline tools play them (`estimator::replay`): a recorder
+        // that samples on a regular clock but stamps with jitter (8 of the 5026 steps of each
+        // real LWR run) would otherwise make a late-then-early stamp a velocity spike of tens
+        // of Nm in the 1 kHz momentum residual.
+        let trajectory = Trajectory {
+            t: std::mem::take(&mut self.t),
+            q: std::mem::take(&mut self.q),
+            tau: Vec::new(),
+        };
+        self.t = time_base(&trajectory).0;
+        self.q = trajectory.q;
+        self.spline = Some(Spline::new(&self.t, &self.q));
         match self.derivatives {
             Some(Derivatives::Recorded) => {}
             Some(Derivatives::VelocityRecorded) => self.qdd = differentiate(&self.t, &self.qd),
@@ -288,9 +305,12 @@ impl RecordedLog {
         self.derivatives.unwrap_or(Derivatives::Differentiated)
     }
 
-    /// The joint state `t_s` (s) after the first stamp, linearly interpolated between the rows
-    /// around it (the first or last row outside the log). `cursor` is the row index to start
-    /// searching from: replaying forward keeps the search O(1) and allocation-free.
+    /// The joint state `t_s` (s) after the first stamp, between the rows around it (the first or
+    /// last row outside the log): positions on the natural cubic spline through the rows'
+    /// positions (exact at every row, its velocity continuous: the motion the arm made, with no
+    /// step at the rows for a 1 kHz observer to see), the recorded velocities, accelerations
+    /// and torques linearly. `cursor` is the row index to start searching from: replaying
+    /// forward keeps the search O(1) and allocation-free.
     pub fn sample(&self, t_s: f64, cursor: &mut usize) -> Sample {
         let t = self.start_s() + t_s;
         let last = self.t.len().saturating_sub(1);
@@ -304,8 +324,12 @@ impl RecordedLog {
         let (t0, t1) = (self.t[i], self.t[i + 1]);
         let s = ((t - t0) / (t1 - t0)).clamp(0.0, 1.0);
         let lerp = |v: &[JointVector]| v[i] + (v[i + 1] - v[i]) * s;
+        let q = match &self.spline {
+            Some(spline) => spline.at(&self.t, &self.q, i, t0 + s * (t1 - t0)).0,
+            None => lerp(&self.q),
+        };
         Sample {
-            q: lerp(&self.q),
+            q,
             qd: lerp(&self.qd),
             qdd: lerp(&self.qdd),
             tau: lerp(&self.tau),

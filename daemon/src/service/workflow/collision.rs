@@ -115,12 +115,9 @@ impl ServiceCore {
         config
             .validate()
             .map_err(|e| err(ErrorCode::InvalidArguments, e.to_string()))?;
-        let monitor = crate::service::build_scheduled_monitor(
-            &config,
-            self.model.clone(),
-            stored.schedule.as_ref(),
-        )
-        .map_err(|e| err(ErrorCode::InvalidArguments, e.to_string()))?;
+        let monitor =
+            crate::service::build_scheduled_monitor(&config, &self.arm, stored.schedule.as_ref())
+                .map_err(|e| err(ErrorCode::InvalidArguments, e.to_string()))?;
         self.send(CycleRequest::ReplaceMonitor {
             monitor: Box::new(monitor),
             react: stored.reaction != ReactionMode::Report,

@@ -121,13 +121,7 @@ impl ServiceCore {
         for w in &warnings {
             tracing::warn!(warning = %w.message(), "estimate-payload");
         }
-        let fitted = estimate_fit(
-            &self.model,
-            &loaded,
-            tare_used,
-            &self.config.estimation,
-            start_clock,
-        );
+        let fitted = self.fit_payload(&loaded, tare_used, start_clock);
         // An estimate that means nothing is refused here: never reported as a result, never
         // published, never applied (by `apply` or by ending the unknown-payload mode).
         let (estimate, uncertainty) = judged(
@@ -192,6 +186,29 @@ impl ServiceCore {
             )?;
         }
         Ok(result)
+    }
+}
+
+impl ServiceCore {
+    /// [`estimate_fit`] as the service runs it: against `tare` when given, else against the
+    /// arm model in force — the controller's gravity vector with the nominal model, the
+    /// identified arm's g(q) plus offsets with `robot.calibration` (its offset σ at least the
+    /// arm's held-out residual RMS; docs/robot-model.md).
+    pub(crate) fn fit_payload(
+        &self,
+        loaded: &[StaticSample],
+        tare: Option<&Tare>,
+        start: Option<Clocks>,
+    ) -> Result<(PayloadEstimate, Option<TaredUncertainty>), estimator::EstimatorError> {
+        let against_model = tare.is_none().then(|| self.arm.model_reference(loaded));
+        match against_model.flatten() {
+            Some(reference) => {
+                let mut config = self.config.estimation.clone();
+                config.untared_offset_std = self.arm.model_offset_std(config.untared_offset_std);
+                estimate_fit(&self.model, &reference, None, &config, start)
+            }
+            None => estimate_fit(&self.model, loaded, tare, &self.config.estimation, start),
+        }
     }
 }
 

@@ -14,7 +14,7 @@
 
 use std::time::Duration;
 
-use dynamics::{Data, compute_generalized_gravity};
+use dynamics::Data;
 use fri_api::origin::Origin;
 use fri_api::protocol::{ErrorCode, OperatorError};
 use fri_api::results::{
@@ -319,14 +319,13 @@ impl ServiceCore {
     /// The workflows' hook after each static sample: while the payload is unknown, refits the
     /// flange load to every sample since the declaration and hands the hypothesis to the loop.
     /// Data: the residual at rest without the compensation, z = τ_J − g(q) of the observer's
-    /// own unloaded model. Never fails the workflow: without the new hypothesis the loop keeps
+    /// own unloaded model (with an identified arm, its offsets too). Never fails the workflow: without the new hypothesis the loop keeps
     /// the previous one, which can only make it stricter.
     pub(crate) fn unknown_payload_sampled(&self, sample: &StaticSample) {
         let mut data = Data::new(&self.model);
         let load = LoadSample {
             q: sample.q,
-            load_torque: sample.tau
-                - compute_generalized_gravity(&self.model, &mut data, &sample.q),
+            load_torque: sample.tau - self.arm.torque_at_rest(&mut data, &sample.q),
         };
         let thresholds = nalgebra::SVector::from(self.persistent(|s| s.thresholds));
         let hypothesis = self.persistent(|s| {

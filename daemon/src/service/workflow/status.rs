@@ -65,6 +65,7 @@ impl ServiceCore {
             monitor,
             ros2_unauthenticated_commands: self.config.ros2_unauthenticated_commands(),
             unknown_payload: self.unknown_payload_status(),
+            robot: Some(self.arm.status()),
         }
     }
 }

@@ -5,16 +5,16 @@
 //! loaded runs — a payload of nothing, a metre from the flange (issue 20). Its samples are
 //! therefore fitted as a payload first, with the estimator's own statistics
 //! (`estimator::verdict::load_seen`): against the stored tare when it was taken at the same
-//! poses since the last controller restart (`tare_epoch`), else against the controller's
-//! gravity vector (whose model error then joins the σ: `[estimation]
-//! controller_model_mass_std_kg`). A mass significantly above zero (> 3σ) refuses the tare — the
+//! poses since the last controller restart (`tare_epoch`), else against the arm model in force:
+//! the controller's gravity vector (whose model error then joins the σ: `[estimation]
+//! controller_model_mass_std_kg`), or the identified arm's (`robot.calibration`). A mass significantly above zero (> 3σ) refuses the tare — the
 //! stored one is kept — unless `replace_loaded` is given (a load that belongs to the arm, such as a gripper
 //! the controller's model lacks); the audit trail then records the load.
 
 use fri_api::cause::{Cause, TareReference};
 use fri_api::results::{TareLoad, TareResult, Workflow};
 
-use super::estimate::{estimate_fit, tare_covers_samples};
+use super::estimate::tare_covers_samples;
 use super::poses::PatternRequest;
 use super::tare_epoch::restart_since;
 use crate::operator::server::EventSink;
@@ -93,8 +93,8 @@ impl ServiceCore {
     }
 
     /// The load the samples of `tare` see, fitted as a payload: against `previous` when it
-    /// covers the same poses and no controller restart came since, else against the
-    /// controller's gravity. `None` when the fit is not possible (e.g. two poses).
+    /// covers the same poses and no controller restart came since, else against the arm model
+    /// in force ([`ServiceCore::fit_payload`]). `None` when the fit is not possible (e.g. two poses).
     fn load_seen(
         &self,
         tare: &Tare,
@@ -108,12 +108,16 @@ impl ServiceCore {
         let config = &self.config.estimation;
         let (fit, against) = match reference {
             Some(p) => (
-                estimate_fit(&self.model, &tare.samples, Some(p), config, start),
+                self.fit_payload(&tare.samples, Some(p), start),
                 TareReference::PreviousTare,
             ),
             None => (
-                estimate_fit(&self.model, &tare.samples, None, config, None),
-                TareReference::ControllerGravity,
+                self.fit_payload(&tare.samples, None, None),
+                if self.arm.identified_arm().is_some() {
+                    TareReference::IdentifiedModel
+                } else {
+                    TareReference::ControllerGravity
+                },
             ),
         };
         let bounds = config.verdict_bounds(against == TareReference::PreviousTare);

@@ -77,8 +77,12 @@ fn status_connected_and_disconnected() {
         "ros2_unauthenticated_commands": true,
         "state": {"kind": "commanding"},
         "unknown_payload": null,
+        "robot": {"model": "lwr4", "calibration": {
+            "path": "/etc/fri-service/arm.toml", "logs": ["run1.csv"], "duration_s": 25.1,
+            "residual_rms_nominal": ([1.0; 7]), "heldout_rms": ([0.3; 7]), "offset": ([0.5; 7])}},
     });
     let s: StatusResult = round_trip(connected.clone());
+    assert_eq!(s.robot.as_ref().unwrap().model, "lwr4");
     assert_eq!(s.fri.unwrap().cycles, 1234);
     assert!(matches!(
         s.payload_origin,
@@ -100,6 +104,7 @@ fn status_connected_and_disconnected() {
         "ros2_unauthenticated_commands": false,
         "state": null,
         "unknown_payload": null,
+        "robot": null,
     });
     // Held by a collision: the state names the cause and the controller's view.
     let mut held = connected.clone();

@@ -319,8 +319,9 @@ impl ServiceCore {
     /// The workflows' hook after each static sample: while the payload is unknown, refits the
     /// flange load to every sample since the declaration and hands the hypothesis to the loop.
     /// Data: the residual at rest without the compensation, z = τ_J − g(q) of the observer's
-    /// own unloaded model (with an identified arm, its offsets too). Never fails the workflow: without the new hypothesis the loop keeps
-    /// the previous one, which can only make it stricter.
+    /// own unloaded model (with an identified arm, its offsets too). Never fails the workflow:
+    /// without the new hypothesis the loop keeps the previous one, which can only make it
+    /// stricter.
     pub(crate) fn unknown_payload_sampled(&self, sample: &StaticSample) {
         let mut data = Data::new(&self.model);
         let load = LoadSample {

@@ -74,8 +74,10 @@ async fn in_attempts<F: Future<Output = Attempt>>(scenario: impl Fn() -> F) {
 /// controller silent; the contact of the scenario (onset `contact_onset_s`) taking place before
 /// the stalled test host could start the estimate (the arm then held by it); and a collision
 /// the monitor reported during such a stall, with the arm held (the reaction worked). The last
-/// one is a false contact under host stalls, still open (issue 20 item 3): it is printed with
-/// its evidence, and on a host that kept time it fails the test. Nothing before the scenario's
+/// one is a false contact under host stalls: the cause found (a stall across the grasp, then the
+/// estimate's first move pinned the empty flange) is fixed and reproduced cycle by cycle in
+/// `unknown_payload_pin.rs`; any other is printed with its evidence, and on a host that kept
+/// time it fails the test. Nothing before the scenario's
 /// contact may be taken for a contact on a host that kept time.
 async fn host_stalled(
     e: OperatorError,

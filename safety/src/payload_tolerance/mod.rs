@@ -285,6 +285,14 @@ impl<const N: usize> PayloadTolerance<N> {
         true
     }
 
+    /// The monitor restarted (a gap in the controller's cycles, a controller restart, a loss
+    /// of command mode): the load may have changed while no fit was made, so the stretch at
+    /// rest before it is never pinned (not by a move either) and the settle watch starts over
+    /// at the first rest after it. A pinned load stays.
+    pub fn interrupt(&mut self) {
+        self.settle.interrupt();
+    }
+
     /// The service starts moving the arm: the grasp is over. During the grasp window the load
     /// of the last stretch at rest is pinned now if it was steady for the settle time; a load
     /// still changing (a grasp the move interrupted, the residual still rising) pins nothing:

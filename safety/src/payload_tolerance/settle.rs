@@ -12,7 +12,8 @@
 //! goes returns to the declaration's load and pins nothing. A move suspends the watch (the
 //! fit's open direction follows the pose, which is no change of the load); the first stretch at
 //! rest after it starts over from its own load, so a grasp during a move is pinned only at the
-//! grasp window's end. Allocation-free, fixed-size.
+//! grasp window's end. A restart of the monitor (a gap, a loss of command mode) is treated as a
+//! move: the grasp may have happened while no fit was made. Allocation-free, fixed-size.
 
 use nalgebra::{Matrix4, SMatrix, SVector, Vector4};
 
@@ -153,6 +154,14 @@ impl SettleTracker {
         self.information = normal_equations(y, &SVector::zeros(), weights).0;
     }
 
+    /// The fits stopped for a while (the monitor restarted after a gap or a loss of command
+    /// mode): the load may have changed unseen, so the last segment is no longer the load and
+    /// the first stretch at rest after it starts over from its own load, as after a move.
+    pub(crate) fn interrupt(&mut self) {
+        self.started = false;
+        self.moved = true;
+    }
+
     fn mean(&self) -> (Vector4<f64>, Matrix4<f64>) {
         (self.average, self.information)
     }
@@ -262,5 +271,33 @@ mod tests {
             let load = Vector4::new(push, 0.0, 0.0, 0.078 * push);
             assert!(s.observe(&load, &y, &w, &th, true, t, 0.5).is_none(), "{t}");
         }
+    }
+    #[test]
+    fn after_an_interruption_the_stretch_before_it_is_never_the_load() {
+        let model = dynamics::lwr4();
+        let mut data = Data::new(&model);
+        let q = V7::from(dynamics::LWR4_PICK_POSE_RAD);
+        let y = payload_gravity_regressor(&model, &mut data, &q);
+        let th = V7::repeat(6.0);
+        let w = super::super::fit::weights(&th);
+        let empty = Vector4::zeros();
+        let full = Vector4::new(3.0, 0.0, 0.0, 0.36);
+        let mut s = SettleTracker::new();
+        for k in 0..1000 {
+            let t = k as f64 * 1e-3;
+            assert!(s.observe(&empty, &y, &w, &th, true, t, 0.5).is_none());
+        }
+        assert!(s.last_settled(0.5).is_some(), "the empty flange was steady");
+        // The grasp happens while nothing is fitted.
+        s.interrupt();
+        assert!(s.last_settled(0.5).is_none() && s.last().is_none());
+        // The payload from the first rest after it is the new baseline: steady, never a grasp
+        // (the window's end pins it), and steady for the settle time it is the last segment.
+        for k in 1100..3000 {
+            let t = k as f64 * 1e-3;
+            assert!(s.observe(&full, &y, &w, &th, true, t, 0.5).is_none(), "{t}");
+        }
+        let (p, _) = s.last_settled(0.5).expect("the payload was steady");
+        assert!(deviation(&y, &p, &full, &th) < SETTLE_BAND, "{p}");
     }
 }

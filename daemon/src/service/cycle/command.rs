@@ -6,7 +6,7 @@ use super::*;
 impl CycleProcessor {
     /// Restarts the collision monitor and says why.
     pub(super) fn resynchronise(&mut self, reason: ResyncReason, fri: FriContext) {
-        self.monitor.restart();
+        self.restart_monitor();
         self.emit(CycleEvent::Resynchronised {
             cycle: self.cycle,
             reason,
@@ -29,7 +29,12 @@ impl CycleProcessor {
         if w.quiet >= REST_CYCLES || w.waited >= MAX_REST_WAIT_CYCLES {
             self.rest_wait = None;
         }
+        self.restart_monitor();
+    }
+    /// Restarts the monitor; the unknown-payload view learns that it saw nothing meanwhile.
+    fn restart_monitor(&mut self) {
         self.monitor.restart();
+        self.tolerance.interrupt();
     }
     /// Follows the controller's command mode; runs before the monitor steps, so that the
     /// cycle in which the controller starts braking is already treated as such.

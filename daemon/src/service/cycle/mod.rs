@@ -23,7 +23,8 @@
 //!   load during the grasp, the pinned load after it (`safety::PayloadTolerance`,
 //!   [`unknown_payload`]); applying a payload ends that in the same cycle, so the new estimate
 //!   is in use without a gap; without an estimate the mode expires on the controller's clock
-//!   and the monitor detects against the applied payload again;
+//!   and the monitor detects against the applied payload again; every restart of the monitor
+//!   tells that view it saw nothing meanwhile, so a load from before a gap is never pinned;
 //! - every change of that mode (declared, pinned, ended, expired) leaves the loop as a
 //!   [`CycleEvent::UnknownPayload`] in the cycle it happened.
 

@@ -130,6 +130,13 @@ const ARGUMENTS: &[Argument] = &[
         range: |_| bounds::RECORD_COUNT,
     },
     Argument {
+        commands: &["record"],
+        field: "excite_deg",
+        elements: None,
+        kind: Kind::Number,
+        range: |_| bounds::EXCITE_DEG,
+    },
+    Argument {
         commands: &["collision-calibrate"],
         field: "duration_s",
         elements: None,

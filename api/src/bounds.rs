@@ -232,6 +232,11 @@ pub const SAMPLE_DURATION_S: Range = Range::new(MIN_CYCLE_S, 60.0, "s");
 /// Length of a `record` log, s.
 pub const LOG_DURATION_S: Range = Range::new(MIN_CYCLE_S, 3600.0, "s");
 
+/// Amplitude of the identification excitation of a `record` log (`excite_deg`), deg: below 1°
+/// friction and inertia are not excited above the torque noise; above 45° the waypoints of
+/// typical working poses run into the joint limits (each target is clamped 5° inside them).
+pub const EXCITE_DEG: Range = Range::new(1.0, 45.0, "deg");
+
 /// Number of static samples of a `record`.
 pub const RECORD_COUNT: Range = Range::new(1.0, 1000.0, "");
 

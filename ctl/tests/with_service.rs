@@ -333,6 +333,7 @@ async fn the_daemons_results_decode_into_the_typed_results() {
             kind: RecordKind::Log,
             duration_s: Some(0.02),
             count: None,
+            excite_deg: None,
         },
     )
     .await;

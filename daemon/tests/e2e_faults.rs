@@ -190,6 +190,7 @@ async fn record_fails_with_controller_silent_when_the_controller_is_gone() {
         kind,
         duration_s: Some(duration_s),
         count: None,
+        excite_deg: None,
     };
     let silent = |e: &fri_api::protocol::OperatorError| {
         matches!(e.cause.as_deref(), Some(Cause::ControllerSilent { .. }))

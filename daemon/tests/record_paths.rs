@@ -25,6 +25,7 @@ fn log(path: &str) -> Command {
         kind: RecordKind::Log,
         duration_s: Some(0.05),
         count: None,
+        excite_deg: None,
     }
 }
 
@@ -114,6 +115,7 @@ async fn record_stays_inside_the_recording_directory() {
         kind: RecordKind::Samples,
         duration_s: None,
         count: Some(1),
+        excite_deg: None,
     };
     let r = c.call(samples, |_, _| {}).await.unwrap();
     refused(r, "existing file, samples");

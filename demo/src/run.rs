@@ -542,6 +542,7 @@ async fn phases(
                     // fails (issue 20 item 9).
                     duration_s: Some(FREE_MOTION_S),
                     count: None,
+                    excite_deg: None,
                 },
                 |_, _| {},
             )

@@ -82,6 +82,7 @@ async fn run(setup: Setup, seconds: u64, round: usize) -> Value {
                         kind: RecordKind::Mcap,
                         duration_s: Some(seconds as f64 + 3.0),
                         count: None,
+                        excite_deg: None,
                     },
                     |_| {},
                 )

@@ -145,6 +145,7 @@ async fn python_mcap_reader_decodes_the_recording_as_the_csv_log_of_the_same_run
                 kind,
                 duration_s: Some(RECORD_S),
                 count: None,
+                excite_deg: None,
             },
             |_| {},
         )

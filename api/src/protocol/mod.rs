@@ -148,6 +148,12 @@ pub enum Command {
         /// Number of static samples for `samples` (each taken at the current pose).
         #[serde(default)]
         count: Option<usize>,
+        /// With `kind: log` only — MOVES THE ARM: drive the built-in identification
+        /// excitation (offsets of this amplitude, deg, around the current pose, within the
+        /// joint limits less 5°) while logging, repeated until `duration_s` (default one pass),
+        /// then hold in monitor mode (default: nothing moves, the log records what the arm does).
+        #[serde(default)]
+        excite_deg: Option<f64>,
     },
     /// Stream events (collisions, state changes, workflow progress) until the client disconnects.
     Watch {
@@ -196,15 +202,18 @@ impl Command {
 
     /// Whether the command may move the arm or change what the monitor protects (the audit
     /// trail records it with its origin): everything but reading (`status`, `sample`, `watch`,
-    /// `record`, `collision show`, and the previews of `estimate-payload` and
-    /// `collision-calibrate` without `apply`, which still move the arm and so count).
+    /// `record` without `excite_deg`, `collision show`; the previews of `estimate-payload` and
+    /// `collision-calibrate` without `apply`, and an excited `record`, move the arm and so count).
     pub fn changes_state(&self) -> bool {
         !matches!(
             self,
             Command::Status
                 | Command::Sample { .. }
                 | Command::Watch { .. }
-                | Command::Record { .. }
+                | Command::Record {
+                    excite_deg: None,
+                    ..
+                }
                 | Command::Collision {
                     action: CollisionAction::Show,
                     ..

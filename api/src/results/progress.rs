@@ -62,4 +62,6 @@ pub enum Workflow {
     Estimate,
     /// `collision-calibrate`.
     Calibrate,
+    /// `record` with `excite_deg` (the identification excitation).
+    Record,
 }

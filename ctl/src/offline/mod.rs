@@ -27,6 +27,7 @@ pub use args::{
     CalibrateArgs, CalibrateThresholdsArgs, CoefficientsArgs, EstimateArgs, IdentifyArgs,
     MethodArg, MonitorArgs, MotionArgs, OfflineCommand, PosesArgs,
 };
+pub(crate) use identify_cmd::identify_arm;
 pub use robot::RobotChoice;
 pub use thresholds::{THRESHOLDS_FORMAT, ThresholdsFile};
 

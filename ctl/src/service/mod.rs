@@ -13,6 +13,7 @@ mod error;
 mod estimate;
 mod expect_payload;
 mod format;
+mod identify;
 mod lists;
 mod pattern;
 mod record;
@@ -38,6 +39,7 @@ pub use collision::{CollisionArg, CollisionArgs};
 pub use collision_calibrate::SourceArg;
 pub use estimate::EstimateArgs;
 pub use expect_payload::ExpectPayloadArgs;
+pub use identify::{IdentifyArgs, IdentifySource};
 pub use pattern::{PatternArg, PatternArgs};
 pub use record::{RecordArg, RecordArgs};
 pub use resume::ResumeArgs;
@@ -142,6 +144,10 @@ pub enum OperatorCommand {
     /// Record static samples or a per-cycle log to a new CSV file of the service.
     #[command(long_about = record::HELP)]
     Record(RecordArgs),
+    /// MOVES THE ARM: identify the unloaded arm from an excitation (or the current task) and
+    /// write the identified-arm file `[robot] calibration` loads.
+    #[command(long_about = identify::HELP)]
+    Identify(IdentifyArgs),
     /// Stream the service's events (collisions, stops, monitor restarts) until interrupted.
     #[command(long_about = watch::HELP)]
     Watch(WatchArgs),
@@ -181,6 +187,7 @@ pub fn run(cmd: &OperatorCommand, options: &ServiceOptions, out: &mut Stdout) ->
         O::Stop(a) => stop::run(a, options, out),
         O::Resume(a) => runner::run(a, socket, out),
         O::Record(a) => runner::run(a, socket, out),
+        O::Identify(a) => identify::run(a, socket, out),
         O::Watch(a) => runner::run(a, socket, out),
     }
 }

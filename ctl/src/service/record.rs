@@ -14,7 +14,7 @@ use super::runner::Operation;
 /// Long help of `record`.
 pub(super) const HELP: &str = "\
 Record to a new CSV or MCAP file in the service's recording directory (`state.record_dir`) and \
-print its full path. The arm does not move.
+print its full path. The arm does not move, except with `--excite-deg`.
 
 `--kind log` (default) writes every cycle for `--duration` seconds (0.001…3600, default 1): \
 cycle, time (s), flags, then q (rad), q̇ (rad/s), τ_J, gravity, τ_ext and residual (Nm) per \
@@ -30,6 +30,13 @@ format, for `fri-ctl offline estimate --tare` and `offline calibrate`.
 stamped with the controller's time (s since the service's first measurement). It opens in \
 Foxglove and reads with `ros2 bag` and the `mcap` libraries; `fri-ctl offline estimate-motion \
 --log` reads it too.
+
+`--excite-deg DEG` (with `--kind log` only; 1…45) MOVES THE ARM: the service drives its \
+identification excitation — twelve waypoints around the current pose whose joint offsets of up \
+to DEG degrees are orthogonal cosine patterns (each joint at its own frequencies), clamped 5° \
+inside the joint limits, at the `[motion]` limits — while it logs, repeats it until \
+`--duration` (default one pass), and holds the arm where it started, in monitor mode. `fri-ctl \
+identify` uses it to identify the arm.
 
 Cycles the recorder could not keep up with are reported as lost: the log has gaps there.
 
@@ -63,6 +70,10 @@ pub struct RecordArgs {
     /// Number of static samples: 1…1000 (with `--kind samples`; default 1).
     #[arg(long, value_parser = super::counts::record_count)]
     pub count: Option<usize>,
+    /// MOVES THE ARM (with `--kind log`): drive the identification excitation of this
+    /// amplitude, deg (1…45), around the current pose while logging.
+    #[arg(long, value_name = "DEG")]
+    pub excite_deg: Option<f64>,
     /// Output format.
     #[command(flatten)]
     pub output: JsonFlag,
@@ -82,6 +93,7 @@ impl Operation for RecordArgs {
             },
             duration_s: self.duration,
             count: self.count,
+            excite_deg: self.excite_deg,
         })
     }
 

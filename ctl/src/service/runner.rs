@@ -82,15 +82,9 @@ pub(crate) fn run_retrying<O: Operation>(
             return EXIT_USAGE;
         }
     };
-    let runtime = match tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-    {
+    let runtime = match runtime() {
         Ok(r) => r,
-        Err(e) => {
-            stderr_line(format_args!("error: cannot start the runtime: {e}"));
-            return EXIT_FAILED;
-        }
+        Err(code) => return code,
     };
     runtime.block_on(async {
         let give_up = tokio::time::Instant::now() + retry_for;
@@ -113,6 +107,47 @@ pub(crate) fn run_retrying<O: Operation>(
             return report(op, outcome, socket, out);
         }
     })
+}
+
+/// Runs `op` once, as [`run`] does, but hands a typed result back instead of printing it: one
+/// step of a command made of several (`identify`). Anything but a typed result is reported as
+/// [`run`] reports it — the service's error as `{"error": …}` on stdout when `json_errors` (the
+/// composite command's `--json`) — and its exit status is the error.
+pub(crate) fn call<O: Operation>(
+    op: &O,
+    socket: &Path,
+    json_errors: bool,
+    out: &mut Stdout,
+) -> Result<O::Output, u8> {
+    let command = op.request().map_err(|e| {
+        stderr_line(format_args!("error: {e}"));
+        EXIT_USAGE
+    })?;
+    let runtime = runtime()?;
+    match runtime.block_on(attempt(op, command, socket, out)) {
+        Some(Outcome::Typed(r)) => Ok(r),
+        Some(Outcome::Refused(e)) if json_errors => {
+            let line = serde_json::json!({ "error": e });
+            match writeln!(out, "{line}").and_then(|()| out.flush()) {
+                Ok(()) => Err(exit_code(&e)),
+                Err(_) => Err(out
+                    .failure()
+                    .map_or(EXIT_FAILED, |f| f.exit_code(EXIT_FAILED))),
+            }
+        }
+        other => Err(report(op, other, socket, out)),
+    }
+}
+
+/// The client's single-threaded runtime, or the exit status of its failure (reported).
+fn runtime() -> Result<tokio::runtime::Runtime, u8> {
+    tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| {
+            stderr_line(format_args!("error: cannot start the runtime: {e}"));
+            EXIT_FAILED
+        })
 }
 
 fn progress_bar() -> ProgressBar {

@@ -197,7 +197,11 @@ impl Handler for Dispatcher {
                 kind,
                 duration_s,
                 count,
-            } => reply(s.record(&path, kind, duration_s, count, &events).await),
+                excite_deg,
+            } => reply(
+                s.record(&path, kind, duration_s, count, excite_deg, &events)
+                    .await,
+            ),
             Command::Watch { state_every } => reply(s.watch(state_every, &events).await),
         }
     }

@@ -255,45 +255,10 @@ impl ServiceCore {
         duration_s: Option<f64>,
         events: &EventSink,
     ) -> Result<CalibrationRecording, OperatorError> {
-        let latest = self.latest()?;
-        let start = latest.robot.q;
-        let started_at = latest.robot.time_s;
+        let start = self.latest()?.robot.q;
         let targets = excitation_targets(&self.model, &start);
         let (stop, stopped) = watch::channel(false);
-        let excite = async {
-            let mut pass = 0;
-            let outcome = loop {
-                for (k, target) in targets.iter().enumerate() {
-                    events
-                        .event(&Event::Progress(Progress {
-                            phase: Phase::Moving,
-                            step: Some(pass * targets.len() + k + 1),
-                            of: Some(targets.len()),
-                            workflow: Some(Workflow::Calibrate),
-                            pose: Some(*target),
-                            settle_s: None,
-                            max_speed: None,
-                        }))
-                        .await;
-                    if let Err(e) = self.move_to(*target, None).await {
-                        self.release().await;
-                        let _ = stop.send(true);
-                        return Err(e);
-                    }
-                }
-                pass += 1;
-                let elapsed = self
-                    .shared
-                    .latest()
-                    .map_or(0.0, |s| s.robot.time_s - started_at);
-                if duration_s.is_none_or(|d| elapsed >= d) {
-                    break Ok(());
-                }
-            };
-            self.release().await;
-            let _ = stop.send(true);
-            outcome
-        };
+        let excite = self.drive_passes(&targets, duration_s, Workflow::Calibrate, events, stop);
         let (moved, recorded) =
             tokio::join!(excite, self.record_free_motion(None, stopped, events));
         moved?;

@@ -1,7 +1,7 @@
 //! The operator workflows, one file per command (mini-redis `cmd/` style): each takes its
 //! request's arguments, runs against the loop's ordered output ([`super::stream`]) and returns
 //! its result or an error with its cause. The shared steps are a commanded move ([`motion`]), a
-//! static sample ([`acquire`]) and the pose pattern ([`poses`]).
+//! static sample ([`acquire`]), the pose pattern ([`poses`]) and the excitations ([`excite`]).
 
 pub mod acquire;
 pub mod calibrate;
@@ -9,6 +9,7 @@ pub mod calibration_report;
 pub mod collision;
 pub mod estimate;
 pub mod estimate_verdict;
+pub mod excite;
 pub mod expect_payload;
 pub mod motion;
 pub mod payload;

@@ -1,13 +1,17 @@
 //! `record`: static samples or a per-cycle log, as CSV in a new file of the recording directory,
-//! or the per-cycle state and the events as ROS 2 messages in an MCAP file.
+//! or the per-cycle state and the events as ROS 2 messages in an MCAP file. A log with
+//! `excite_deg` drives the identification excitation ([`super::excite`]) while it records: the
+//! unloaded arm's own data for `fri-ctl identify`.
 
 use std::time::Duration;
 
-use fri_api::results::{Event, Phase, Progress, RecordResult};
+use fri_api::results::{Event, Phase, Progress, RecordResult, Workflow};
 use tokio::sync::broadcast::error::RecvError;
+use tokio::sync::watch;
 use tokio::time::Instant;
 
 use super::acquire::{Acquire, WATCH_WAIT_S};
+use super::excite::identification_targets;
 use super::motion::SilenceTimer;
 use crate::operator::server::EventSink;
 use crate::service::core::{ServiceCore, err};
@@ -23,6 +27,7 @@ impl ServiceCore {
         kind: fri_api::protocol::RecordKind,
         duration_s: Option<f64>,
         count: Option<usize>,
+        excite_deg: Option<f64>,
         events: &EventSink,
     ) -> Result<RecordResult, OperatorError> {
         use crate::recordings::{RecordDir, RecordError};
@@ -36,6 +41,12 @@ impl ServiceCore {
             err(code, e.to_string())
         };
         let dir = RecordDir::open(&self.config.state.record_dir()).map_err(refuse)?;
+        if excite_deg.is_some() && kind != RecordKind::Log {
+            return Err(err(
+                ErrorCode::InvalidArguments,
+                "`excite_deg` goes with `kind: log` only (the excitation is logged per cycle); nothing was done",
+            ));
+        }
         let full = dir.check_free(path).map_err(refuse)?;
         let shown = full.to_string_lossy().into_owned();
         let io = |e: std::io::Error| err(ErrorCode::Failed, format!("cannot write {shown}: {e}"));
@@ -122,72 +133,141 @@ impl ServiceCore {
                 })
             }
             RecordKind::Log => {
-                let d = log_duration(duration_s)?;
+                let excitation = match excite_deg {
+                    None => None,
+                    Some(a) => {
+                        fri_api::bounds::EXCITE_DEG
+                            .check("excite_deg", a)
+                            .map_err(OperatorError::out_of_range)?;
+                        Some(a.to_radians())
+                    }
+                };
+                // One pass by default with an excitation; 1 s without.
+                let d = match (excitation, duration_s) {
+                    (Some(_), None) => None,
+                    (_, d) => Some(log_duration(d)?),
+                };
+                // The excitation moves the arm: no other workflow meanwhile.
+                let _guard = excitation.map(|_| self.busy()).transpose()?;
                 let mut updates = self.shared.subscribe();
                 // Nothing to record without a controller: fail before creating the file.
-                self.latest()?;
-                let silence = SilenceTimer::new(self);
-                let mut silent = None;
+                let start = self.latest()?.robot.q;
                 let (file, _) = dir.create(path).map_err(refuse)?;
-                let mut w = std::io::BufWriter::new(file);
-                use std::io::Write;
-                let mut header = String::from("cycle,time_s,flags");
-                for name in ["q", "qd", "tau", "g", "tau_ext", "r"] {
-                    for j in 1..=7 {
-                        header.push_str(&format!(",{name}{j}"));
+                let w = std::io::BufWriter::new(file);
+                let (done, stopped) = watch::channel(false);
+                let (logged, moved) = match excitation {
+                    None => (self.write_log(w, &mut updates, d, None).await, Ok(())),
+                    Some(amplitude) => {
+                        let targets = identification_targets(&self.model, &start, amplitude);
+                        let drive = self.drive_passes(&targets, d, Workflow::Record, events, done);
+                        tokio::join!(self.write_log(w, &mut updates, None, Some(stopped)), drive)
                     }
+                };
+                let logged = logged.map_err(io)?;
+                if let Err(mut e) = moved {
+                    e.message = format!(
+                        "{}; the excitation stopped after {} cycles ({shown} holds them)",
+                        e.message, logged.rows
+                    );
+                    return Err(e);
                 }
-                writeln!(w, "{header}").map_err(io)?;
-                let mut t0 = None;
-                let mut rows = 0usize;
-                let mut lost = 0u64;
-                let wall = Instant::now() + Duration::from_secs_f64(d * 2.0 + 10.0);
-                loop {
-                    let u = tokio::select! {
-                        u = updates.recv() => u,
-                        silent_s = silence.silence() => {
-                            silent = Some(silent_s);
-                            break;
-                        }
-                        _ = tokio::time::sleep_until(wall) => break,
-                    };
-                    let s = match u {
-                        Ok(Update::Snapshot(s)) => s.robot,
-                        Ok(Update::Event(_)) => continue,
-                        Err(RecvError::Lagged(n)) => {
-                            lost += n;
-                            continue;
-                        }
-                        Err(RecvError::Closed) => break,
-                    };
-                    let start = *t0.get_or_insert(s.time_s);
-                    if s.time_s - start > d {
-                        break;
-                    }
-                    let mut line = format!("{},{:.6},{}", s.cycle, s.time_s, s.flags);
-                    for a in [&s.q, &s.qd, &s.tau, &s.gravity, &s.tau_ext, &s.residual] {
-                        for v in a {
-                            line.push_str(&format!(",{v}"));
-                        }
-                    }
-                    writeln!(w, "{line}").map_err(io)?;
-                    rows += 1;
-                }
-                w.flush().map_err(io)?;
-                if let Some(silent_s) = silent {
-                    return Err(self.went_silent(silent_s, rows, &shown));
+                if let Some(silent_s) = logged.silent_s {
+                    return Err(self.went_silent(silent_s, logged.rows, &shown));
                 }
                 Ok(RecordResult {
-                    rows,
+                    rows: logged.rows,
                     path: shown,
-                    lost: Some(lost),
+                    lost: Some(logged.lost),
                 })
             }
         }
     }
 }
 
+/// What [`ServiceCore::write_log`] wrote.
+struct Logged {
+    /// Rows written.
+    rows: usize,
+    /// Cycles the log fell behind on (gaps in the file).
+    lost: u64,
+    /// The controller's silence that ended the log early, s.
+    silent_s: Option<f64>,
+}
+
+/// Wall-clock bound of an excited log, s: two hours, twice the longest `duration_s`, so a
+/// drive that never ends cannot keep the file open forever.
+const MAX_EXCITED_WALL_S: f64 = 2.0 * 3600.0 + 10.0;
+
 impl ServiceCore {
+    /// Writes the per-cycle CSV log to `w` from `updates`: `duration_s` of controller time, or
+    /// until `stop` turns true, whichever ends first; the controller's silence ends it too.
+    async fn write_log(
+        &self,
+        mut w: std::io::BufWriter<std::fs::File>,
+        updates: &mut tokio::sync::broadcast::Receiver<Update>,
+        duration_s: Option<f64>,
+        mut stop: Option<watch::Receiver<bool>>,
+    ) -> std::io::Result<Logged> {
+        use std::io::Write;
+        let mut header = String::from("cycle,time_s,flags");
+        for name in ["q", "qd", "tau", "g", "tau_ext", "r"] {
+            for j in 1..=7 {
+                header.push_str(&format!(",{name}{j}"));
+            }
+        }
+        writeln!(w, "{header}")?;
+        let silence = SilenceTimer::new(self);
+        let mut logged = Logged {
+            rows: 0,
+            lost: 0,
+            silent_s: None,
+        };
+        let mut t0 = None;
+        let wall_s = duration_s.map_or(MAX_EXCITED_WALL_S, |d| d * 2.0 + 10.0);
+        let wall = Instant::now() + Duration::from_secs_f64(wall_s);
+        let stopped = async |stop: &mut Option<watch::Receiver<bool>>| match stop {
+            Some(rx) => {
+                // A dropped sender ends the log as a stop does.
+                let _ = rx.wait_for(|s| *s).await;
+            }
+            None => std::future::pending().await,
+        };
+        loop {
+            let u = tokio::select! {
+                u = updates.recv() => u,
+                silent_s = silence.silence() => {
+                    logged.silent_s = Some(silent_s);
+                    break;
+                }
+                () = stopped(&mut stop) => break,
+                _ = tokio::time::sleep_until(wall) => break,
+            };
+            let s = match u {
+                Ok(Update::Snapshot(s)) => s.robot,
+                Ok(Update::Event(_)) => continue,
+                Err(RecvError::Lagged(n)) => {
+                    logged.lost += n;
+                    continue;
+                }
+                Err(RecvError::Closed) => break,
+            };
+            let start = *t0.get_or_insert(s.time_s);
+            if duration_s.is_some_and(|d| s.time_s - start > d) {
+                break;
+            }
+            let mut line = format!("{},{:.6},{}", s.cycle, s.time_s, s.flags);
+            for a in [&s.q, &s.qd, &s.tau, &s.gravity, &s.tau_ext, &s.residual] {
+                for v in a {
+                    line.push_str(&format!(",{v}"));
+                }
+            }
+            writeln!(w, "{line}")?;
+            logged.rows += 1;
+        }
+        w.flush()?;
+        Ok(logged)
+    }
+
     /// The error of a recording the controller's silence ended: `controller-silent`, naming
     /// the partial file.
     fn went_silent(&self, silent_s: f64, rows: usize, shown: &str) -> OperatorError {

@@ -1,5 +1,6 @@
 //! iceoryx2 publication of robot state, collision events and payload estimates.
 
+pub mod error;
 pub mod publisher;
 pub mod recovery;
 pub mod thread;

@@ -24,7 +24,7 @@ use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::publish_subscribe::PortFactory;
 use iceoryx2::service::service_hash::ServiceHash;
 
-use super::publisher::IpcError;
+use super::error::IpcError;
 use iceoryx2::service::builder::publish_subscribe::{
     PublishSubscribeOpenError, PublishSubscribeOpenOrCreateError as OpenOrCreate,
 };

@@ -12,7 +12,6 @@ use std::os::unix::fs::PermissionsExt;
 use std::os::unix::net::{UnixListener, UnixStream};
 use std::path::Path;
 
-use super::server::ServerError;
 use crate::persistence::dir::{CheckedDir, Rule};
 
 /// Binds the operator socket at `path` with mode 0660, non-blocking (ready for tokio's
@@ -65,4 +64,45 @@ pub fn bind(path: &Path) -> Result<UnixListener, ServerError> {
         .set_nonblocking(true)
         .map_err(err("set non-blocking", path))?;
     Ok(listener)
+}
+
+/// Errors setting up the socket.
+#[derive(Debug, thiserror::Error)]
+pub enum ServerError {
+    /// Creating the directory, binding or setting the mode failed.
+    #[error("{action} {path}: {source}")]
+    Io {
+        /// What was being done.
+        action: &'static str,
+        /// The path.
+        path: std::path::PathBuf,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// The socket's directory (or a parent) is not trusted, or cannot be created or opened.
+    #[error("{0}")]
+    Directory(crate::persistence::dir::DirError),
+    /// Another server answers on the socket path.
+    #[error("another service is already listening on {0}")]
+    InUse(std::path::PathBuf),
+    /// Something other than a socket exists at the path; it is never removed.
+    #[error(
+        "{path} is a {found}, not a socket; refusing to replace it (remove it or choose another \
+         path)"
+    )]
+    NotASocket {
+        /// The path.
+        path: std::path::PathBuf,
+        /// What was found there, e.g. `regular file`.
+        found: &'static str,
+    },
+    /// A socket file exists but connecting failed for another reason than "nobody listens", so
+    /// it cannot be called stale.
+    #[error("{path}: cannot tell whether the existing socket is stale: {source}")]
+    Unprobeable {
+        /// The path.
+        path: std::path::PathBuf,
+        /// The connect error.
+        source: std::io::Error,
+    },
 }

@@ -14,7 +14,9 @@ use tokio::net::unix::OwnedWriteHalf;
 use tokio::sync::mpsc;
 use tracing::{debug, info};
 
-use super::server::{EventSink, Handler, Peer, ServerLimits};
+use super::access::Peer;
+use super::handler::{EventSink, Handler};
+use super::limits::ServerLimits;
 use fri_api::frame::{Frame, LineReader};
 use fri_api::protocol::{Command, ErrorCode, OperatorError, Reply, Request, parse_request};
 

@@ -9,164 +9,22 @@
 //! `idle_timeout` is closed, and beyond the connection limit a few extra connections are still
 //! read up to their first line so that a `stop` is executed ([`super::overflow`]).
 
-use std::future::Future;
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Duration;
 
-use serde_json::Value;
 use tokio::io::AsyncWriteExt;
 use tokio::net::{UnixListener, UnixStream};
 use tokio::sync::{Semaphore, mpsc, watch};
 use tracing::{debug, info, warn};
 
+pub use super::access::{AccessPolicy, Peer};
+pub use super::handler::{EventSink, Handler};
+pub use super::limits::ServerLimits;
+pub use super::listener::ServerError;
 use super::overflow;
 use fri_api::frame::{Frame, LineReader};
-use fri_api::origin::Origin;
-use fri_api::protocol::{ErrorCode, OperatorError, Reply, RequestId, Ros2Caller, parse_request};
-
-/// Executes operator commands; implemented by the service (and by test doubles).
-pub trait Handler: Send + Sync + 'static {
-    /// Runs one command; streams events through `events`, returns the final result.
-    fn handle(
-        &self,
-        command: fri_api::protocol::Command,
-        origin: Origin,
-        events: EventSink,
-    ) -> impl Future<Output = Result<Value, OperatorError>> + Send;
-}
-
-/// Sends streamed events of one request to its client.
-#[derive(Debug, Clone)]
-pub struct EventSink {
-    id: Option<RequestId>,
-    out: mpsc::Sender<String>,
-}
-
-impl EventSink {
-    /// A sink writing lines for request `id` into `out`.
-    pub fn new(id: Option<RequestId>, out: mpsc::Sender<String>) -> Self {
-        Self { id, out }
-    }
-
-    /// Sends one event; `false` when the client is gone (the caller should stop streaming).
-    pub async fn send(&self, event: &str, data: Value) -> bool {
-        let line = Reply::Event {
-            id: self.id,
-            event: event.to_owned(),
-            data,
-        }
-        .to_line();
-        self.out.send(line).await.is_ok()
-    }
-
-    /// Sends one typed event; `false` when the client is gone.
-    pub async fn event(&self, event: &fri_api::results::Event) -> bool {
-        let data = match serde_json::to_value(event) {
-            Ok(Value::Object(mut line)) => line.remove("data").unwrap_or(Value::Null),
-            _ => Value::Null,
-        };
-        self.send(event.name(), data).await
-    }
-
-    /// Whether the client has disconnected.
-    pub fn is_closed(&self) -> bool {
-        self.out.is_closed()
-    }
-}
-
-/// Who may connect: root, the server's own uid, listed uids, or listed primary gids.
-#[derive(Debug, Clone, Default)]
-pub struct AccessPolicy {
-    /// Additional allowed user ids.
-    pub allowed_uids: Vec<u32>,
-    /// Allowed group ids (the peer's primary gid as reported by SO_PEERCRED).
-    pub allowed_gids: Vec<u32>,
-}
-
-impl AccessPolicy {
-    /// Whether a peer with these credentials may talk to the service.
-    pub fn allows(&self, uid: u32, gid: u32) -> bool {
-        // SAFETY: geteuid has no preconditions and cannot fail.
-        let own = unsafe { libc::geteuid() };
-        uid == 0
-            || uid == own
-            || self.allowed_uids.contains(&uid)
-            || self.allowed_gids.contains(&gid)
-    }
-}
-
-/// Limits applied per server and per connection.
-#[derive(Debug, Clone, Copy)]
-pub struct ServerLimits {
-    /// Longest request line, bytes.
-    pub max_line_bytes: usize,
-    /// Most simultaneous connections.
-    pub max_clients: usize,
-    /// Most requests running at once on one connection.
-    pub max_in_flight: usize,
-    /// A connection with no request in flight that sends nothing for this long is closed.
-    pub idle_timeout: Duration,
-    /// Most connections at once beyond `max_clients` that are read for a `stop` only.
-    pub over_limit_connections: usize,
-    /// How long an over-limit connection may take to send its first line (and to take the
-    /// reply).
-    pub over_limit_grace: Duration,
-}
-
-impl Default for ServerLimits {
-    fn default() -> Self {
-        Self {
-            max_line_bytes: 65536,
-            max_clients: 64,
-            max_in_flight: 16,
-            idle_timeout: Duration::from_secs(30),
-            over_limit_connections: 4,
-            over_limit_grace: Duration::from_secs(2),
-        }
-    }
-}
-
-/// Errors setting up the socket.
-#[derive(Debug, thiserror::Error)]
-pub enum ServerError {
-    /// Creating the directory, binding or setting the mode failed.
-    #[error("{action} {path}: {source}")]
-    Io {
-        /// What was being done.
-        action: &'static str,
-        /// The path.
-        path: std::path::PathBuf,
-        /// Underlying error.
-        source: std::io::Error,
-    },
-    /// The socket's directory (or a parent) is not trusted, or cannot be created or opened.
-    #[error("{0}")]
-    Directory(crate::persistence::dir::DirError),
-    /// Another server answers on the socket path.
-    #[error("another service is already listening on {0}")]
-    InUse(std::path::PathBuf),
-    /// Something other than a socket exists at the path; it is never removed.
-    #[error(
-        "{path} is a {found}, not a socket; refusing to replace it (remove it or choose another \
-         path)"
-    )]
-    NotASocket {
-        /// The path.
-        path: std::path::PathBuf,
-        /// What was found there, e.g. `regular file`.
-        found: &'static str,
-    },
-    /// A socket file exists but connecting failed for another reason than "nobody listens", so
-    /// it cannot be called stale.
-    #[error("{path}: cannot tell whether the existing socket is stale: {source}")]
-    Unprobeable {
-        /// The path.
-        path: std::path::PathBuf,
-        /// The connect error.
-        source: std::io::Error,
-    },
-}
+use fri_api::protocol::{ErrorCode, OperatorError, Reply, parse_request};
 
 /// Binds the operator socket at `path` with mode 0660 ([`super::listener::bind`]: a checked
 /// directory; a stale socket is replaced, anything else at the path is an error).
@@ -278,33 +136,6 @@ async fn reject(mut stream: UnixStream, code: ErrorCode, message: &str) {
     let mut line = Reply::err(None, OperatorError::new(code, message)).to_line();
     line.push('\n');
     let _ = stream.write_all(line.as_bytes()).await;
-}
-
-/// The credentials of an operator-socket client, as the kernel reported them at `accept`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Peer {
-    /// User id.
-    pub uid: u32,
-    /// Process id (0 when the kernel did not report it).
-    pub pid: i32,
-}
-
-impl Peer {
-    /// The origin of a request from this peer, forwarded for `ros2` when it says so.
-    pub fn origin(self, ros2: Option<Ros2Caller>) -> Origin {
-        match ros2 {
-            None => Origin::Operator {
-                uid: self.uid,
-                pid: self.pid,
-            },
-            Some(c) => Origin::Ros2 {
-                participant: c.participant,
-                authenticated: c.authenticated,
-                uid: self.uid,
-                pid: self.pid,
-            },
-        }
-    }
 }
 
 async fn connection<H: Handler>(

@@ -55,7 +55,7 @@ pub(crate) struct Persistent {
     pub(crate) stored_monitor: Option<StoredMonitor>,
     /// The payload is declared unknown (`expect-payload`; not persisted: a restarted service
     /// detects against the applied payload, the safe direction).
-    pub(crate) unknown_payload: Option<super::workflow::expect_payload::UnknownPayloadState>,
+    pub(crate) unknown_payload: Option<super::workflow::unknown_payload_state::UnknownPayloadState>,
     /// Declarations of an unknown payload so far (numbers them).
     pub(crate) declarations: u32,
     /// Who applied the payload in force (`None`: no payload).
@@ -80,7 +80,7 @@ pub struct ServiceCore {
     pub(crate) fri_state: Option<FriStateSource>,
     /// The last `collision-calibrate` recording (for `source: last-recording`).
     pub(crate) calibration_recording:
-        Mutex<Option<super::workflow::calibrate::CalibrationRecording>>,
+        Mutex<Option<super::workflow::calibration_recording::CalibrationRecording>>,
     /// The audit trail (`crate::audit`).
     pub(crate) audit: Arc<crate::audit::Audit>,
     /// This service instance (its start on the host clock in ns, xor the process id): a stored

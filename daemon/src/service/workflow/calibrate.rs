@@ -26,10 +26,11 @@ use safety::calibration::{EnvelopeRecorder, FitOptions};
 use tokio::sync::broadcast::error::RecvError;
 use tokio::sync::watch;
 
+use super::calibration_recording::CalibrationRecording;
 use super::calibration_report::{above_ceiling, refused};
 use super::motion::SilenceTimer;
 use crate::operator::server::EventSink;
-use crate::persistence::{AppliedPayload, StoredMonitor};
+use crate::persistence::StoredMonitor;
 use crate::service::core::{ServiceCore, compensation, err, same_payload};
 use crate::service::output::CycleEvent;
 use crate::service::stream::Update;
@@ -51,13 +52,6 @@ const SWEEP_CENTRES_DEG: [[f64; 7]; 3] = [
 const PATTERN_POSES: usize = 10;
 /// Its increment, deg.
 const PATTERN_STEP_DEG: f64 = 7.0;
-
-/// A recording kept for `last-recording`.
-#[derive(Debug, Clone)]
-pub struct CalibrationRecording {
-    recorder: EnvelopeRecorder<7>,
-    payload: Option<AppliedPayload>,
-}
 
 /// The targets of the built-in excitation from `start` (rad): per sweep its centre, joint 1 at
 /// ±66.7° (less where the joint limit minus 5° is closer) twice, the centre; then the

@@ -14,7 +14,7 @@ use estimator::estimate::{Correction as EstimatorCorrection, Method, PayloadEsti
 
 use crate::config::EstimationConfig;
 
-use super::estimate_verdict::judged;
+use super::estimate_verdict::{TaredUncertainty, judged};
 use super::poses::PatternRequest;
 use super::tare_epoch::restart_since;
 use crate::ipc::PayloadEstimate as IpcPayload;
@@ -291,15 +291,6 @@ fn tare_covers(tare: &Tare, request: &PatternRequest, revisit: bool) -> Result<(
             deg(&around)
         ),
     ))
-}
-
-/// The error model's uncertainty of an estimate and the pause its tare's drift ran over.
-pub struct TaredUncertainty {
-    /// σ by source.
-    pub uncertainty: Uncertainty,
-    /// Time from the tare's last sample to the first loaded one, s, on the controller's clock
-    /// (`None` without a tare).
-    pub since_tare_s: Option<f64>,
 }
 
 /// Runs the estimator on the loaded samples, against the stored tare when given (Δτ = τ_loaded

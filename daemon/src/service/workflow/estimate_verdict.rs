@@ -3,13 +3,13 @@
 //! meaningless estimate fails `estimate-payload` with `Cause::EstimateRejected` carrying its
 //! numbers and every bound it breaks, and nothing applies it.
 
+use estimator::error_model::Uncertainty;
 use estimator::estimate::PayloadEstimate;
 use estimator::verdict;
 use fri_api::cause::{Cause, EstimateProblem};
 use fri_api::protocol::{ErrorCode, OperatorError};
 use fri_api::results::EstimateWarning;
 
-use super::estimate::TaredUncertainty;
 use crate::config::EstimationConfig;
 use crate::service::core::err;
 
@@ -101,4 +101,13 @@ fn problem(p: verdict::Problem) -> EstimateProblem {
             EstimateProblem::ComUncertain { com_std_m, max_m }
         }
     }
+}
+
+/// The error model's uncertainty of an estimate and the pause its tare's drift ran over.
+pub struct TaredUncertainty {
+    /// σ by source.
+    pub uncertainty: Uncertainty,
+    /// Time from the tare's last sample to the first loaded one, s, on the controller's clock
+    /// (`None` without a tare).
+    pub since_tare_s: Option<f64>,
 }

@@ -17,15 +17,11 @@ use std::time::Duration;
 use dynamics::Data;
 use fri_api::origin::Origin;
 use fri_api::protocol::{ErrorCode, OperatorError};
-use fri_api::results::{
-    Change, DeclaredBy, ExpectPayloadResult, PinnedBy, PinnedPayload, UnknownPayload,
-};
-use safety::{
-    FlangeLoadBounds, GraspTiming, LoadSample, PayloadHypothesis, PinSource, ToleranceStatus,
-    fit_hypothesis,
-};
+use fri_api::results::{Change, DeclaredBy, ExpectPayloadResult, UnknownPayload};
+use safety::{FlangeLoadBounds, GraspTiming, LoadSample, fit_hypothesis};
 use tokio::sync::broadcast::error::RecvError;
 
+use super::unknown_payload_state::{UnknownPayloadState, pinned_by};
 use crate::persistence::StaticSample;
 use crate::service::core::{ServiceCore, err};
 use crate::service::cycle::CycleRequest;
@@ -47,71 +43,6 @@ const RESIDUAL_WAIT: Duration = Duration::from_millis(500);
 /// Longest wait of `expect-payload` for the loop to take the declaration (it does in the next
 /// cycle while a controller sends), so that the answer says until when the grasp may last.
 const DECLARATION_WAIT: Duration = Duration::from_millis(500);
-
-/// The unknown-payload mode as the operator side keeps it.
-#[derive(Debug, Clone)]
-pub(crate) struct UnknownPayloadState {
-    /// Number of the declaration (the loop refuses hypotheses of other ones).
-    pub(crate) declaration: u32,
-    /// Who declared it.
-    pub(crate) declared_by: DeclaredBy,
-    /// Whose request declared it.
-    pub(crate) origin: Origin,
-    /// What the payload may be.
-    pub(crate) bounds: FlangeLoadBounds,
-    /// Static samples since the declaration.
-    pub(crate) samples: Vec<LoadSample<7>>,
-    /// The last hypothesis handed to the loop.
-    pub(crate) hypothesis: Option<PayloadHypothesis<7>>,
-}
-
-impl UnknownPayloadState {
-    /// The mode for clients, with what the loop holds of this declaration (`looped`) and the
-    /// newest controller time `now_s`.
-    fn report(&self, looped: Option<&ToleranceStatus>, now_s: Option<f64>) -> UnknownPayload {
-        let h = self.hypothesis.as_ref();
-        let looped = looped.filter(|l| l.declaration == self.declaration);
-        UnknownPayload {
-            declared_by: self.declared_by,
-            origin: Some(self.origin.clone()),
-            max_mass: self.bounds.max_mass_kg,
-            max_radius: self.bounds.radius_m,
-            samples: self.samples.len(),
-            mass: h.map(PayloadHypothesis::mass_kg),
-            com: h.and_then(PayloadHypothesis::com).map(|c| [c.x, c.y, c.z]),
-            consistent: h.is_none_or(|h| h.consistent),
-            declared_at_s: looped.map(|l| l.declared_at_s),
-            grasp_window_end_s: looped.map(|l| l.grasp_window_end_s),
-            expires_at_s: looped.map(|l| l.expires_at_s),
-            expires_in_s: looped
-                .zip(now_s)
-                .map(|(l, now)| (l.expires_at_s - now).max(0.0)),
-            pinned: looped.and_then(|l| l.pinned).map(|p| PinnedPayload {
-                mass: p.mass_kg,
-                com: p.com.map(|c| [c.x, c.y, c.z]),
-                mass_tolerance: p.mass_tolerance_kg,
-                com_tolerance: p.com_tolerance_m,
-                com_height_open: p.open_directions > 0,
-                by: pinned_by(p.source),
-                samples: match p.source {
-                    PinSource::Samples(n) => Some(n),
-                    _ => None,
-                },
-                at_s: p.at_s,
-            }),
-        }
-    }
-}
-
-/// What clients see of a pin's source.
-fn pinned_by(source: PinSource) -> PinnedBy {
-    match source {
-        PinSource::Settled => PinnedBy::Settled,
-        PinSource::GraspWindow => PinnedBy::GraspWindow,
-        PinSource::Move => PinnedBy::Move,
-        PinSource::Samples(_) => PinnedBy::Samples,
-    }
-}
 
 impl ServiceCore {
     /// `expect-payload`: declares the payload unknown with the given bounds (defaults from

@@ -5,6 +5,7 @@
 
 pub mod acquire;
 pub mod calibrate;
+pub mod calibration_recording;
 pub mod calibration_report;
 pub mod collision;
 pub mod estimate;
@@ -20,4 +21,5 @@ pub mod status;
 pub mod stop;
 pub mod tare;
 pub mod tare_epoch;
+pub mod unknown_payload_state;
 pub mod watch;

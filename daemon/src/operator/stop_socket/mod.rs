@@ -27,20 +27,26 @@
 //!   outrun them), so at most 4 × `slots` file descriptors are taken; a complete `stop` line
 //!   is never refused for that.
 
-use std::collections::VecDeque;
 use std::io::{Read, Write};
 use std::os::unix::net::UnixStream as StdStream;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::Ordering;
 use std::time::Duration;
 
 use tokio::io::AsyncWriteExt;
 use tokio::net::{UnixListener, UnixStream};
-use tokio::sync::{Notify, mpsc, watch};
+use tokio::sync::{mpsc, watch};
 use tokio::time::Instant;
 use tracing::{debug, info, warn};
 
-use super::server::{AccessPolicy, EventSink, Handler, Peer};
+mod line;
+mod slots;
+
+use line::{Read1, read_available};
+use slots::{Live, LiveGuard, Reading, Slots};
+
+use super::access::{AccessPolicy, Peer};
+use super::handler::{EventSink, Handler};
 use fri_api::protocol::{Command, ErrorCode, OperatorError, Reply, RequestId, parse_request};
 
 /// Limits of the stop socket.
@@ -66,153 +72,6 @@ impl Default for StopLimits {
 
 /// Longest wait at shutdown for the stops being executed to be answered.
 const SHUTDOWN_GRACE: Duration = Duration::from_secs(2);
-
-/// A connection still reading its line, as the accept loop sees it.
-#[derive(Debug, Default)]
-struct Reading {
-    /// Set by the connection once it has its line (it can no longer be evicted).
-    done: AtomicBool,
-    /// Wakes the connection to be evicted.
-    evict: Notify,
-}
-
-/// Counts the live connections; a guard per connection.
-#[derive(Debug, Default)]
-struct Live(AtomicUsize);
-
-struct LiveGuard(Arc<Live>);
-
-impl Live {
-    fn enter(self: &Arc<Self>) -> LiveGuard {
-        self.0.fetch_add(1, Ordering::SeqCst);
-        LiveGuard(self.clone())
-    }
-
-    /// [`Live::enter`] unless `max` are in already.
-    fn try_enter(self: &Arc<Self>, max: usize) -> Option<LiveGuard> {
-        self.0
-            .fetch_update(Ordering::SeqCst, Ordering::SeqCst, |n| {
-                (n < max).then_some(n + 1)
-            })
-            .ok()
-            .map(|_| LiveGuard(self.clone()))
-    }
-
-    fn count(&self) -> usize {
-        self.0.load(Ordering::SeqCst)
-    }
-}
-
-/// The connections as the accept loop accounts for them: at most `slots` reading their line
-/// (a new one evicts the oldest), at most `slots` executing a stop; a new reading connection is
-/// refused while 3 × `slots` connections are alive (evicted ones end within microseconds, but a
-/// flood may outrun them), so at most 4 × `slots` exist.
-#[derive(Debug)]
-struct Slots {
-    limits: StopLimits,
-    /// Every connection task alive.
-    live: Arc<Live>,
-    /// Connections executing a stop.
-    executing: Arc<Live>,
-    /// Connections still reading, oldest first (finished ones are dropped when met).
-    reading: VecDeque<Arc<Reading>>,
-}
-
-impl Slots {
-    fn new(limits: StopLimits) -> Self {
-        Self {
-            limits,
-            live: Arc::default(),
-            executing: Arc::default(),
-            reading: VecDeque::new(),
-        }
-    }
-
-    /// A connection whose line is complete: it executes at once, unless `slots` stops execute
-    /// (a flood of idle connections never refuses it).
-    fn admit_line(&self) -> Result<(LiveGuard, LiveGuard), Full> {
-        let executing = self
-            .executing
-            .try_enter(self.limits.slots)
-            .ok_or(Full::Executing)?;
-        Ok((self.live.enter(), executing))
-    }
-
-    /// A connection still reading its line: the oldest reading one is evicted when `slots` read.
-    fn admit_reading(&mut self) -> Result<(LiveGuard, Arc<Reading>), Full> {
-        if self.live.count() >= 3 * self.limits.slots {
-            return Err(Full::Evicting);
-        }
-        self.reading
-            .retain(|r| !r.done.load(Ordering::SeqCst) && Arc::strong_count(r) > 1);
-        if self.reading.len() >= self.limits.slots
-            && let Some(oldest) = self.reading.pop_front()
-        {
-            oldest.evict.notify_one();
-        }
-        let entry = Arc::new(Reading::default());
-        self.reading.push_back(entry.clone());
-        Ok((self.live.enter(), entry))
-    }
-}
-
-impl Drop for LiveGuard {
-    fn drop(&mut self) {
-        self.0.0.fetch_sub(1, Ordering::SeqCst);
-    }
-}
-
-/// What a non-blocking read found.
-enum Read1 {
-    /// A complete request line (without `\n` and a trailing `\r`).
-    Line(Vec<u8>),
-    /// Not yet a whole line.
-    Partial,
-    /// The client closed its side without a line.
-    Closed,
-    /// More than the line limit without a newline.
-    TooLarge,
-}
-
-/// Reads what is there with `read` (non-blocking) into `buf` and looks for the first non-blank
-/// line.
-fn read_available(
-    mut read: impl FnMut(&mut [u8]) -> std::io::Result<usize>,
-    buf: &mut Vec<u8>,
-    max: usize,
-) -> std::io::Result<Read1> {
-    let mut chunk = [0u8; 512];
-    loop {
-        if let Some(line) = take_line(buf) {
-            return Ok(Read1::Line(line));
-        }
-        if buf.len() > max {
-            return Ok(Read1::TooLarge);
-        }
-        match read(&mut chunk) {
-            Ok(0) => return Ok(Read1::Closed),
-            Ok(n) => buf.extend_from_slice(&chunk[..n]),
-            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => return Ok(Read1::Partial),
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(e),
-        }
-    }
-}
-
-/// The first non-blank line of `buf`, removed from it.
-fn take_line(buf: &mut Vec<u8>) -> Option<Vec<u8>> {
-    loop {
-        let end = buf.iter().position(|b| *b == b'\n')?;
-        let mut line: Vec<u8> = buf.drain(..=end).collect();
-        line.pop();
-        if line.last() == Some(&b'\r') {
-            line.pop();
-        }
-        if !line.iter().all(u8::is_ascii_whitespace) {
-            return Some(line);
-        }
-    }
-}
 
 /// One reply line, written without waiting (a fresh socket's buffer takes it); dropped if not.
 fn reply_now(stream: &StdStream, id: Option<RequestId>, code: ErrorCode, message: &str) {
@@ -525,6 +384,7 @@ async fn execute<H: Handler>(
 
 #[cfg(test)]
 mod tests {
+    use super::line::take_line;
     use super::*;
 
     #[test]

@@ -1,7 +1,6 @@
 //! The static offline commands: estimate, coefficients, poses, calibrate.
 
-use std::fs::File;
-use std::io::{BufReader, Write};
+use std::io::Write;
 use std::path::Path;
 
 use anyhow::{Context, bail};
@@ -10,31 +9,15 @@ use estimator::CoefficientSet;
 use estimator::correction::{Calibration, estimate_with_calibration, estimate_with_tare};
 use estimator::error_model::{DriftPrior, Reference, estimate_modelled};
 use estimator::estimate::{self as static_estimate, EstimateOptions, Method};
-use estimator::plausible::Ranges;
 use estimator::poses::{self, Criterion, Nominal};
-use estimator::samples::{StaticCheck, StaticSample, read_csv};
+use estimator::samples::{StaticCheck, StaticSample};
 use nalgebra::SVector;
 use serde_json::json;
 
 use super::args::{CalibrateArgs, CoefficientsArgs, EstimateArgs, MethodArg, PosesArgs};
 use super::report;
 use super::robot::with_robot;
-
-/// Reads static samples of an N-joint robot from a CSV file; every value must be plausible for
-/// `model` (positions within its joint limits, torques within twice its torque limits).
-pub(crate) fn read_samples<const N: usize>(
-    path: &Path,
-    model: &Model<N>,
-) -> anyhow::Result<Vec<StaticSample<N>>> {
-    let file =
-        File::open(path).with_context(|| format!("cannot open samples file {}", path.display()))?;
-    let context = || format!("reading {}", path.display());
-    let samples = read_csv::<N, _>(BufReader::new(file)).with_context(context)?;
-    Ranges::from_limits(model.limits())
-        .check_samples(&samples)
-        .with_context(context)?;
-    Ok(samples)
-}
+use super::samples_file::read_samples;
 
 fn options(method: MethodArg, max_velocity: f64) -> EstimateOptions {
     EstimateOptions {

@@ -20,6 +20,7 @@ mod monitor_run;
 mod motion_cmd;
 mod report;
 pub(crate) mod robot;
+mod samples_file;
 mod thresholds;
 mod thresholds_cmd;
 

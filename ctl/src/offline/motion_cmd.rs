@@ -10,9 +10,9 @@ use estimator::motion::{
 };
 
 use super::args::MotionArgs;
-use super::commands::read_samples;
 use super::logs::{read_identified, read_trajectory};
 use super::robot::with_robot;
+use super::samples_file::read_samples;
 
 fn report(e: &InertialEstimate, last_frame: usize) -> String {
     let s = &e.parameters_std;

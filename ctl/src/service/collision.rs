@@ -4,7 +4,7 @@ use std::io::{self, Write};
 
 use clap::{Args, ValueEnum};
 
-use fri_api::protocol::{CollisionAction, Command, ReactionMode};
+use fri_api::protocol::{CalibrationSource, CollisionAction, Command, ReactionMode};
 use fri_api::results::{CollisionResult, MonitorSettings};
 
 use super::JsonFlag;
@@ -44,6 +44,18 @@ the recording) above the service's `[observer] calibration_ceiling_nm` (default 
 the joint's torque limit: 22 Nm on joints 1–2, 12.5 on 3–5, 4.75 on 6–7) weaken detection: \
 `--apply` refuses them unless `--allow-weak` is given (the audit log then records them as \
 weaker).";
+
+/// Where the calibration's motion comes from, on the command line.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum SourceArg {
+    /// MOVES THE ARM: the built-in excitation (the paper's joint-1 sweeps q_A, q_B, q_C and the
+    /// estimation pose pattern) at the configured motion limits.
+    Excitation,
+    /// Record `--duration-s` of the task the arm runs now (the service moves nothing).
+    CurrentTask,
+    /// Fit the last recording again (e.g. for another `--budget`); nothing moves.
+    LastRecording,
+}
 
 /// Collision-monitor actions on the command line.
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -102,7 +114,7 @@ pub struct CollisionArgs {
     pub pause_s: Option<f64>,
     /// What to calibrate on (with `calibrate`; default excitation).
     #[arg(long, value_enum)]
-    pub source: Option<super::collision_calibrate::SourceArg>,
+    pub source: Option<SourceArg>,
     /// Recording length, s of robot time (with `calibrate`: required for current-task; the
     /// excitation repeats until this much is recorded, default one pass).
     #[arg(long, value_name = "S", allow_hyphen_values = true)]
@@ -156,7 +168,7 @@ impl Operation for CollisionArgs {
                 CollisionArg::Configure => CollisionAction::Configure,
                 // `run` sends `calibrate` as its own request (`collision_calibrate.rs`).
                 CollisionArg::Calibrate => {
-                    return super::collision_calibrate::Calibrate(self).request();
+                    return self.calibrate_request();
                 }
             },
             thresholds: lists::optional_per_joint("thresholds", &self.thresholds)?,
@@ -243,4 +255,34 @@ pub(super) fn print_monitor(m: &MonitorSettings, out: &mut dyn Write) -> io::Res
         joint_row(out, "+ gravity", "1", &s.gravity, 4)?;
     }
     joint_row(out, "gain", "1/s", &m.gains, 1)
+}
+
+impl CollisionArgs {
+    /// The `collision-calibrate` request of `collision calibrate`.
+    pub(super) fn calibrate_request(&self) -> Result<Command, String> {
+        let a = self;
+        if a.allow_weak && !a.apply {
+            return Err("--allow-weak goes with --apply".to_owned());
+        }
+        if a.thresholds.is_some()
+            || a.gains.is_some()
+            || a.reaction.is_some()
+            || a.pause_s.is_some()
+        {
+            return Err(
+                "--thresholds, --gains, --reaction and --pause-s go with `configure`".to_owned(),
+            );
+        }
+        Ok(Command::CollisionCalibrate {
+            source: a.source.map(|s| match s {
+                SourceArg::Excitation => CalibrationSource::Excitation,
+                SourceArg::CurrentTask => CalibrationSource::CurrentTask,
+                SourceArg::LastRecording => CalibrationSource::LastRecording,
+            }),
+            duration_s: a.duration_s,
+            budget_per_hour: a.budget,
+            apply: Some(a.apply),
+            allow_weaker: a.allow_weak.then_some(true),
+        })
+    }
 }

@@ -3,26 +3,12 @@
 
 use std::io::{self, Write};
 
-use clap::ValueEnum;
-
-use fri_api::protocol::{CalibrationSource, Command};
+use fri_api::protocol::Command;
 use fri_api::results::{CalibrateResult, LinkForce};
 
 use super::collision::{CollisionArgs, print_monitor};
 use super::format::{fixed, joint_header, joint_row};
 use super::runner::Operation;
-
-/// Where the calibration's motion comes from, on the command line.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum SourceArg {
-    /// MOVES THE ARM: the built-in excitation (the paper's joint-1 sweeps q_A, q_B, q_C and the
-    /// estimation pose pattern) at the configured motion limits.
-    Excitation,
-    /// Record `--duration-s` of the task the arm runs now (the service moves nothing).
-    CurrentTask,
-    /// Fit the last recording again (e.g. for another `--budget`); nothing moves.
-    LastRecording,
-}
 
 /// `collision calibrate` as an operation (built from the `collision` arguments).
 #[derive(Debug, Clone)]
@@ -32,30 +18,7 @@ impl Operation for Calibrate<'_> {
     type Output = CalibrateResult;
 
     fn request(&self) -> Result<Command, String> {
-        let a = self.0;
-        if a.allow_weak && !a.apply {
-            return Err("--allow-weak goes with --apply".to_owned());
-        }
-        if a.thresholds.is_some()
-            || a.gains.is_some()
-            || a.reaction.is_some()
-            || a.pause_s.is_some()
-        {
-            return Err(
-                "--thresholds, --gains, --reaction and --pause-s go with `configure`".to_owned(),
-            );
-        }
-        Ok(Command::CollisionCalibrate {
-            source: a.source.map(|s| match s {
-                SourceArg::Excitation => CalibrationSource::Excitation,
-                SourceArg::CurrentTask => CalibrationSource::CurrentTask,
-                SourceArg::LastRecording => CalibrationSource::LastRecording,
-            }),
-            duration_s: a.duration_s,
-            budget_per_hour: a.budget,
-            apply: Some(a.apply),
-            allow_weaker: a.allow_weak.then_some(true),
-        })
+        self.0.calibrate_request()
     }
 
     fn json(&self) -> bool {

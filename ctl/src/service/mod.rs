@@ -35,8 +35,8 @@ use fri_api::stdio::Stdout;
 
 pub use apply_payload::ApplyPayloadArgs;
 pub use clear_payload::ClearPayloadArgs;
+pub use collision::SourceArg;
 pub use collision::{CollisionArg, CollisionArgs};
-pub use collision_calibrate::SourceArg;
 pub use estimate::EstimateArgs;
 pub use expect_payload::ExpectPayloadArgs;
 pub use identify::{IdentifyArgs, IdentifySource};

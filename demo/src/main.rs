@@ -99,7 +99,8 @@ fn demo(
         writeln!(
             stdout,
             "done: payload {:.4} kg (truth {:.4} kg, paper {:.3} kg); compensated: detections {}, \
-             {} false alarm(s); uncompensated: detections {}, {} false alarm(s); plots in {}",
+             {} false alarm(s); uncompensated: detections {}, {} false alarm(s); plots in {}\n\
+             robot time {:.1} s in {:.1} s of wall time ({:.1}× real time)",
             report.payload_estimate.mass,
             report.payload_truth.mass,
             report.payload_paper.mass,
@@ -107,7 +108,10 @@ fn demo(
             report.false_alarms_compensated,
             fmt_times(&report.detections_uncompensated),
             report.false_alarms_uncompensated,
-            opts.out_dir.display()
+            opts.out_dir.display(),
+            report.robot_time_s,
+            report.wall_time_s,
+            report.robot_time_s / report.wall_time_s.max(f64::EPSILON),
         )?;
     }
     Ok(())

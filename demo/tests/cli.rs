@@ -42,6 +42,11 @@ fn demo_in_lockstep_reports_the_estimate_and_the_three_contacts() {
         assert!(*d >= c && *d < c + 0.2, "{report}");
     }
     assert_eq!(report["false_alarms_compensated"], 0);
+    // Robot time of the three controller runs: the free motion (20.5 s), the calibration's
+    // contact-free run (26 s) and the two pattern runs; the wall time is reported beside it.
+    let robot = report["robot_time_s"].as_f64().unwrap();
+    assert!((50.0..120.0).contains(&robot), "{report}");
+    assert!(report["wall_time_s"].as_f64().unwrap() > 0.0, "{report}");
     assert!(report["false_alarms_uncompensated"].as_u64().unwrap() >= 1);
     let plots: Vec<std::path::PathBuf> = report["plots"]
         .as_array()

@@ -15,12 +15,12 @@ use super::{CALIBRATION_RECORD_S, DemoOptions, say};
 /// `current-task`, budget one false alarm per 10 h, applied. The task, not the built-in
 /// excitation: the excitation moves joint 1 and the pose pattern, and a schedule fitted there
 /// extrapolates to the other joints' fast moves (joint 2 reached its ceiling in the free
-/// motion). Returns the schedule in force.
+/// motion). Returns the schedule in force and the controller cycles of the run.
 pub(super) async fn calibrate_thresholds(
     opts: &DemoOptions,
     client: &mut Client,
     fri: std::net::SocketAddr,
-) -> anyhow::Result<ThresholdSchedule> {
+) -> anyhow::Result<(ThresholdSchedule, u64)> {
     say(
         opts,
         "      calibrating the collision thresholds on the task (a contact-free run of the free motion) ...",
@@ -46,7 +46,7 @@ pub(super) async fn calibrate_thresholds(
             |_| {},
         )
         .await;
-    drop(driver.join());
+    let cycles = driver.join().map_or(0, |(_, run)| run.cycles);
     let result = reply?.map_err(|e| anyhow::anyhow!("calibration failed: {}", e.message))?;
     let fmt = |v: &[f64; 7]| {
         v.iter()
@@ -65,5 +65,5 @@ pub(super) async fn calibrate_thresholds(
             fmt(&force)
         ),
     );
-    Ok(result.schedule)
+    Ok((result.schedule, cycles))
 }

@@ -45,6 +45,8 @@ pub(super) struct Estimated {
     pub(super) estimate: PayloadReport,
     /// The simulation's payload.
     pub(super) truth: PayloadReport,
+    /// Controller cycles of the two runs (tare, estimate).
+    pub(super) cycles: u64,
 }
 
 /// Tare (controller run 1, no payload), then the estimate (run 2, the same simulated arm with
@@ -104,7 +106,7 @@ pub(super) async fn tare_and_estimate(
         .await?
         .map_err(|e| anyhow::anyhow!("expect-payload failed: {}", e.message))?;
     // The same robot carries on: the tare's noise, drift and estimate are independent draws.
-    let (mut robot, _) = driver
+    let (mut robot, tare_run) = driver
         .join()
         .context("the simulated controller of the tare phase failed")?;
     robot.set_payload_attached(true);
@@ -138,7 +140,7 @@ pub(super) async fn tare_and_estimate(
             "      WARNING: the monitor was not armed throughout the estimate"
         },
     );
-    let (robot, _) = driver
+    let (robot, estimate_run) = driver
         .join()
         .context("the simulated controller of the estimate phase failed")?;
     let truth = robot
@@ -158,6 +160,7 @@ pub(super) async fn tare_and_estimate(
             mass_std: None,
             com_std: None,
         },
+        cycles: tare_run.cycles + estimate_run.cycles,
     };
     report(opts, &estimated, &est);
     Ok(estimated)

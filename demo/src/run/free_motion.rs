@@ -26,6 +26,8 @@ pub(super) struct FreeMotionRun {
     pub(super) t0: f64,
     /// Collision onsets the service reported online, s on the service's clock.
     pub(super) online: Vec<f64>,
+    /// Controller cycles of the run.
+    pub(super) cycles: u64,
 }
 
 /// Runs the free motion against the service; the controller has ended when it returns.
@@ -96,7 +98,7 @@ pub(super) async fn run(
         .await
         .context("recording task")??
         .map_err(|e| anyhow::anyhow!("recording failed: {}", e.message))?;
-    drop(driver.join());
+    let cycles = driver.join().map_or(0, |(_, run)| run.cycles);
     watch_task.abort();
     std::fs::copy(&recorded.path, &log_abs)
         .with_context(|| format!("copying {} to {}", recorded.path, log_abs.display()))?;
@@ -114,5 +116,6 @@ pub(super) async fn run(
         log_abs,
         t0,
         online,
+        cycles,
     })
 }

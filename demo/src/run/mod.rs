@@ -124,6 +124,11 @@ pub struct DemoReport {
     pub plots: Vec<PathBuf>,
     /// The free-motion log (CSV) recorded by the service.
     pub log: PathBuf,
+    /// Robot time the simulated controllers ran, s (their cycles × the FRI cycle).
+    pub robot_time_s: f64,
+    /// Wall-clock time of the three phases that run the controller (the evaluation and the
+    /// plots not counted), s.
+    pub wall_time_s: f64,
 }
 
 fn say(opts: &DemoOptions, msg: impl AsRef<str>) {
@@ -198,12 +203,16 @@ async fn phases(
     fri: std::net::SocketAddr,
     cycle_s: f64,
 ) -> anyhow::Result<DemoReport> {
+    let started = std::time::Instant::now();
     let socket = &config.operator.socket;
     let mut client = Client::connect(socket).await?;
     let estimated = estimate::tare_and_estimate(opts, &mut client, fri).await?;
-    let schedule = calibrate::calibrate_thresholds(opts, &mut client, fri).await?;
+    let (schedule, calibration_cycles) =
+        calibrate::calibrate_thresholds(opts, &mut client, fri).await?;
     let run = free_motion::run(opts, &mut client, socket, fri, cycle_s).await?;
+    let simulated = started.elapsed().as_secs_f64();
     let e = evaluate::evaluate(opts, config, &estimated.estimate, &schedule, &run)?;
+    let cycles = estimated.cycles + calibration_cycles + run.cycles;
     Ok(DemoReport {
         payload_truth: estimated.truth,
         payload_estimate: estimated.estimate,
@@ -229,6 +238,8 @@ async fn phases(
         service_detections: run.online.iter().map(|t| t - run.t0).collect(),
         plots: e.plots,
         log: run.log,
+        robot_time_s: cycles as f64 * cycle_s,
+        wall_time_s: simulated,
     })
 }
 

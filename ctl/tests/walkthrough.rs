@@ -4,7 +4,9 @@
 //! payload (the grasp), `estimate-payload --apply` estimates it with the monitor armed, and a
 //! push on link 4 is detected and holds the arm until `resume`. The service in-process, the
 //! simulator in lockstep on its own thread (as the binary runs it, with its control socket),
-//! the requests to the control socket the lines `mock-robot control` sends.
+//! the requests to the control socket the lines `mock-robot control` sends. What each command
+//! printed is checked against the output the README shows for it (numbers masked: they are
+//! the simulator's draws), so the README's transcript stays true.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 use std::net::UdpSocket;
@@ -85,6 +87,68 @@ fn simulator(
     (stop, thread)
 }
 
+/// The README's transcript of the walkthrough (its `text` block after "The same flow with the
+/// simulator"): each `$ command` with the lines it shows (`…` stands for lines left out).
+fn readme_transcript() -> Vec<(String, Vec<String>)> {
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../README.md"))
+            .unwrap();
+    let section = &readme[readme.find("### The same flow with the simulator").unwrap()..];
+    let start = section.find("```text\n").unwrap() + "```text\n".len();
+    let block = &section[start..start + section[start..].find("```").unwrap()];
+    let mut out: Vec<(String, Vec<String>)> = Vec::new();
+    for line in block.lines() {
+        match (line.strip_prefix("$ "), out.last_mut()) {
+            (Some(cmd), _) => out.push((cmd.to_owned(), Vec::new())),
+            (None, Some((_, lines))) if line.trim() != "…" => lines.push(line.to_owned()),
+            _ => {}
+        }
+    }
+    out
+}
+
+/// A line with its numbers masked and its spaces collapsed: what the README can promise.
+fn masked(line: &str) -> String {
+    let mut out = String::new();
+    let mut in_number = false;
+    for c in line
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ")
+        .chars()
+    {
+        let digit = c.is_ascii_digit() || (in_number && c == '.');
+        if digit && !in_number {
+            // A sign belongs to the number.
+            if out.ends_with(['+', '-']) {
+                out.pop();
+            }
+            out.push('#');
+        } else if !digit {
+            out.push(c);
+        }
+        in_number = digit;
+    }
+    out
+}
+
+/// Checks `printed` (command, output) against the README's transcript.
+fn check_readme(printed: &[(String, String)]) {
+    let readme = readme_transcript();
+    let commands: Vec<&str> = readme.iter().map(|(c, _)| c.as_str()).collect();
+    let ran: Vec<&str> = printed.iter().map(|(c, _)| c.as_str()).collect();
+    assert_eq!(commands, ran, "the README's transcript runs other commands");
+    for ((cmd, shown), (_, output)) in readme.iter().zip(printed) {
+        let got: Vec<String> = output.lines().map(masked).collect();
+        for line in shown {
+            assert!(
+                got.contains(&masked(line)),
+                "README, `{cmd}`: {line:?} is not what it printed:\n{output}"
+            );
+        }
+    }
+}
+
 async fn status(socket: &Path) -> Value {
     serde_json::from_str(&fri_ctl(&["status", "--json"], socket).await).unwrap()
 }
@@ -116,11 +180,14 @@ async fn the_readme_walkthrough_with_the_simulator() {
     }
     assert!(connected, "the service never saw the simulator");
 
+    let mut printed: Vec<(String, String)> = Vec::new();
     // fri-ctl tare: unloaded, stored.
     let tare = fri_ctl(&["tare"], &socket).await;
+    printed.push(("fri-ctl tare".into(), tare.clone()));
     assert!(tare.contains("tare stored"), "{tare}");
     // fri-ctl expect-payload: the monitor stays armed.
     let declared = fri_ctl(&["expect-payload"], &socket).await;
+    printed.push(("fri-ctl expect-payload".into(), declared.clone()));
     assert!(declared.contains("GRASP WINDOW"), "{declared}");
     // mock-robot control attach --mass-kg 3.028 --com-m 0,0,0.119: the grasp.
     let attached = control(
@@ -129,27 +196,29 @@ async fn the_readme_walkthrough_with_the_simulator() {
     )
     .await;
     assert!(attached.contains("payload attached"), "{attached}");
+    printed.push((
+        "mock-robot control attach --mass-kg 3.028 --com-m 0,0,0.119".into(),
+        attached,
+    ));
     // fri-ctl estimate-payload --apply: about 3.028 kg, armed throughout.
-    let estimate: Value = serde_json::from_str(
-        fri_ctl(&["estimate-payload", "--apply", "--json"], &socket)
-            .await
-            .lines()
-            .last()
-            .unwrap(),
-    )
-    .unwrap();
-    let mass = estimate["mass"].as_f64().unwrap();
-    assert!((mass - 3.028).abs() < 0.03, "{estimate:#}");
+    let estimated = fri_ctl(&["estimate-payload", "--apply"], &socket).await;
+    printed.push(("fri-ctl estimate-payload --apply".into(), estimated));
+    let mass = status(&socket).await["payload"]["mass"].as_f64().unwrap();
+    assert!((mass - 3.028).abs() < 0.03, "{mass}");
     let s = status(&socket).await;
     assert_eq!(s["monitor"]["armed"], true, "{s:#}");
     assert!(s["unknown_payload"].is_null(), "{s:#}");
     assert!((s["payload"]["mass"].as_f64().unwrap() - mass).abs() < 1e-9);
-    // mock-robot control push --link 4 --force-n 0,80,0 --duration-s 0.2: the arm is held.
-    control(
+    // mock-robot control push --link 4 --force-n 80,0,0 --duration-s 0.2: the arm is held.
+    let pushed = control(
         &control_path,
-        r#"{"cmd":"push","link":4,"profile":{"kind":"half_sine","peak_force_n":[0.0,80.0,0.0],"duration_s":0.2}}"#,
+        r#"{"cmd":"push","link":4,"profile":{"kind":"half_sine","peak_force_n":[80.0,0.0,0.0],"duration_s":0.2}}"#,
     )
     .await;
+    printed.push((
+        "mock-robot control push --link 4 --force-n 80,0,0 --duration-s 0.2".into(),
+        pushed,
+    ));
     let mut held = Value::Null;
     for _ in 0..300 {
         held = status(&socket).await;
@@ -159,11 +228,21 @@ async fn the_readme_walkthrough_with_the_simulator() {
         tokio::time::sleep(Duration::from_millis(10)).await;
     }
     assert_eq!(held["stopped"], true, "{held:#}");
+    printed.push(("fri-ctl status".into(), fri_ctl(&["status"], &socket).await));
     // fri-ctl resume: released once the contact is over.
     tokio::time::sleep(Duration::from_millis(300)).await;
-    fri_ctl(&["resume"], &socket).await;
+    let resumed = fri_ctl(&["resume"], &socket).await;
+    printed.push(("fri-ctl resume".into(), resumed.clone()));
     let s = status(&socket).await;
     assert_eq!(s["stopped"], false, "{s:#}");
+    println!(
+        "{}",
+        printed
+            .iter()
+            .map(|(c, o)| format!("$ {c}\n{o}"))
+            .collect::<String>()
+    );
+    check_readme(&printed);
     stop.store(true, Ordering::Relaxed);
     sim.join().unwrap();
     h.stop().await.unwrap();

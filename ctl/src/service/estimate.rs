@@ -8,7 +8,9 @@ use fri_api::protocol::Command;
 use fri_api::results::{Correction, EstimateMethod, EstimateResult, UncertaintyReport};
 
 use super::JsonFlag;
-use super::format::{fixed, joint_header, joint_row, joint_row_deg, timing_line, xyz_mm};
+use super::format::{
+    fixed, joint_header, joint_row, joint_row_deg, timing_line, xyz_mm, xyz_mm_std,
+};
 use super::pattern::PatternArgs;
 use super::runner::Operation;
 
@@ -91,9 +93,13 @@ pub(super) fn print(r: &EstimateResult, out: &mut dyn Write) -> io::Result<()> {
         fixed(r.mass_std, 4)
     )?;
     writeln!(out, "com frame {}    [mm] {}", r.frame, xyz_mm(&r.com, 2))?;
-    writeln!(out, "         ± 1σ  [mm] {}", xyz_mm(&r.com_std, 2))?;
+    writeln!(out, "         ± 1σ  [mm] {}", xyz_mm_std(&r.com_std, 2))?;
     writeln!(out, "com flange     [mm] {}", xyz_mm(&r.com_flange, 2))?;
-    writeln!(out, "         ± 1σ  [mm] {}", xyz_mm(&r.com_flange_std, 2))?;
+    writeln!(
+        out,
+        "         ± 1σ  [mm] {}",
+        xyz_mm_std(&r.com_flange_std, 2)
+    )?;
     let method = match r.method {
         EstimateMethod::Direct => "direct least squares",
         EstimateMethod::Coefficients => "gravity-coefficient route",
@@ -145,7 +151,7 @@ fn print_uncertainty(u: &UncertaintyReport, out: &mut dyn Write) -> io::Result<(
             "  {:<20} {:>7}   {}",
             s.source.label(),
             fixed(s.mass_std * 1e3, 2),
-            xyz_mm(&s.com_std, 2)
+            xyz_mm_std(&s.com_std, 2)
         )?;
     }
     let measured = u.drift_rate_measured.map_or_else(

@@ -84,6 +84,16 @@ pub(crate) fn xyz_mm(v: &[f64; 3], digits: usize) -> String {
     format!("x {}  y {}  z {}", c(v[0]), c(v[1]), c(v[2]))
 }
 
+/// Three standard deviations in mm, without a sign (a σ has none): "x 0.16  y 0.13  z 0.24".
+pub(crate) fn xyz_mm_std(v: &[f64; 3], digits: usize) -> String {
+    format!(
+        "x {}  y {}  z {}",
+        mm(v[0], digits),
+        mm(v[1], digits),
+        mm(v[2], digits)
+    )
+}
+
 /// A ratio 0…1 as a percentage with one decimal.
 pub(crate) fn percent(ratio: f64) -> String {
     format!("{} %", fixed(ratio * 100.0, 1))
@@ -118,6 +128,11 @@ mod tests {
         assert_eq!(
             xyz_mm(&[0.001, -0.002, 0.119], 2),
             "x +1.00  y -2.00  z +119.00"
+        );
+        // A σ has no sign.
+        assert_eq!(
+            xyz_mm_std(&[0.00016, 0.00013, 0.00024], 2),
+            "x 0.16  y 0.13  z 0.24"
         );
     }
 }

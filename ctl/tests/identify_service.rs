@@ -5,8 +5,9 @@
 //! is refused with its cause, without a file.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::Output;
 use std::time::Duration;
 
 use fri_api::client::Client;
@@ -16,6 +17,8 @@ use fri_service::testkit::{InProcess, local_config};
 use mock_robot::contact::{ContactProfile, ContactSpec};
 use mock_robot::{MockRobotHandle, ServerConfig, SimulationConfig, TimingMode};
 use serde_json::Value;
+
+use common::fri_ctl;
 
 /// The simulated controller without its payload, in lockstep with the service.
 fn unloaded_controller(h: &InProcess, contacts: Vec<ContactSpec>) -> MockRobotHandle {
@@ -47,22 +50,6 @@ async fn wait_connected(c: &mut Client) {
         tokio::time::sleep(Duration::from_millis(10)).await;
     }
     panic!("service never saw the controller");
-}
-
-/// `fri-ctl ARGS --socket SOCKET`, off the runtime.
-async fn fri_ctl(socket: &Path, args: &[&str]) -> Output {
-    let socket = socket.to_owned();
-    let args: Vec<String> = args.iter().map(|s| (*s).to_owned()).collect();
-    tokio::task::spawn_blocking(move || {
-        std::process::Command::new(env!("CARGO_BIN_EXE_fri-ctl"))
-            .args(&args)
-            .arg("--socket")
-            .arg(&socket)
-            .output()
-            .unwrap()
-    })
-    .await
-    .unwrap()
 }
 
 /// The logs `identify` left in the recording directory.

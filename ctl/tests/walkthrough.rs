@@ -9,6 +9,8 @@
 //! the simulator's draws), so the README's transcript stays true.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
+mod common;
+
 use std::net::UdpSocket;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -20,21 +22,10 @@ use mock_robot::server::{RunCounters, run_with};
 use mock_robot::{ServerConfig, Simulation, SimulationConfig, TimingMode};
 use serde_json::Value;
 
-/// `fri-ctl ARGS… --socket SOCKET`, off the async runtime: its stdout, or a panic with all of
-/// its output when it failed.
+/// `fri-ctl ARGS… --socket SOCKET`: its stdout, or a panic with all of its output when it
+/// failed.
 async fn fri_ctl(args: &[&str], socket: &Path) -> String {
-    let args: Vec<String> = args.iter().map(|s| (*s).to_owned()).collect();
-    let socket = socket.to_owned();
-    let out = tokio::task::spawn_blocking(move || {
-        std::process::Command::new(env!("CARGO_BIN_EXE_fri-ctl"))
-            .args(&args)
-            .arg("--socket")
-            .arg(&socket)
-            .output()
-            .unwrap()
-    })
-    .await
-    .unwrap();
+    let out = common::fri_ctl(socket, args).await;
     let text = String::from_utf8_lossy(&out.stdout).into_owned();
     assert!(
         out.status.success(),

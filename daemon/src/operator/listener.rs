@@ -66,6 +66,28 @@ pub fn bind(path: &Path) -> Result<UnixListener, ServerError> {
     Ok(listener)
 }
 
+/// The next client of `listener`, or `None` once `shutdown` turns true. An accept error (e.g.
+/// out of file descriptors) is logged as `what`'s and retried after 10 ms, never spun on.
+pub async fn next_client(
+    listener: &tokio::net::UnixListener,
+    shutdown: &mut tokio::sync::watch::Receiver<bool>,
+    what: &str,
+) -> Option<tokio::net::UnixStream> {
+    loop {
+        let accepted = tokio::select! {
+            a = listener.accept() => a,
+            _ = shutdown.wait_for(|s| *s) => return None,
+        };
+        match accepted {
+            Ok((s, _)) => return Some(s),
+            Err(e) => {
+                tracing::warn!(error = %e, "{what} accept failed");
+                tokio::time::sleep(std::time::Duration::from_millis(10)).await;
+            }
+        }
+    }
+}
+
 /// Errors setting up the socket.
 #[derive(Debug, thiserror::Error)]
 pub enum ServerError {

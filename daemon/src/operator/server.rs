@@ -56,17 +56,10 @@ pub async fn serve<H: Handler>(
     loop {
         // Reap finished connections so the set does not grow on a long-running service.
         while connections.try_join_next().is_some() {}
-        let accepted = tokio::select! {
-            a = listener.accept() => a,
-            _ = shutdown.wait_for(|s| *s) => break,
-        };
-        let stream = match accepted {
-            Ok((s, _)) => s,
-            Err(e) => {
-                warn!(error = %e, "operator socket accept failed");
-                tokio::time::sleep(std::time::Duration::from_millis(10)).await;
-                continue;
-            }
+        let Some(stream) =
+            super::listener::next_client(&listener, &mut shutdown, "operator socket").await
+        else {
+            break;
         };
         // Credentials first: even an over-limit connection may execute `stop`.
         let peer = match stream.peer_cred() {

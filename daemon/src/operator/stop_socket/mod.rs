@@ -93,18 +93,10 @@ pub async fn serve<H: Handler>(
     let mut tasks = tokio::task::JoinSet::new();
     loop {
         while tasks.try_join_next().is_some() {}
-        let accepted = tokio::select! {
-            a = listener.accept() => a,
-            _ = shutdown.wait_for(|s| *s) => break,
-        };
-        let stream = match accepted {
-            Ok((s, _)) => s,
-            Err(e) => {
-                // E.g. out of file descriptors: do not spin on it.
-                warn!(error = %e, "stop socket accept failed");
-                tokio::time::sleep(Duration::from_millis(10)).await;
-                continue;
-            }
+        let Some(stream) =
+            super::listener::next_client(&listener, &mut shutdown, "stop socket").await
+        else {
+            break;
         };
         if let Some((stream, peer)) = admitted(stream, &policy)
             && let Some(job) = connection(stream, &mut slots)

@@ -3,6 +3,20 @@
 
 use fri_api::origin::Origin;
 use fri_api::protocol::Ros2Caller;
+use tokio::net::UnixStream;
+use tracing::warn;
+
+/// What a refused client is told.
+pub const DENIED: &str = "permission denied: uid/gid not allowed by operator.allowed_uids/gids";
+
+/// Why a connection was not admitted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Refusal {
+    /// Its credentials are not allowed: it is told [`DENIED`].
+    Denied,
+    /// The kernel did not report its credentials: it is closed without a word.
+    Unknown,
+}
 
 /// Who may connect: root, the server's own uid, listed uids, or listed primary gids.
 #[derive(Debug, Clone, Default)]
@@ -14,6 +28,29 @@ pub struct AccessPolicy {
 }
 
 impl AccessPolicy {
+    /// The peer of an accepted connection on `what` (`operator socket`, `stop socket`), or
+    /// why it is refused (logged here).
+    pub fn admit(&self, stream: &UnixStream, what: &str) -> Result<Peer, Refusal> {
+        match stream.peer_cred() {
+            Ok(cred) if self.allows(cred.uid(), cred.gid()) => Ok(Peer {
+                uid: cred.uid(),
+                pid: cred.pid().unwrap_or(0),
+            }),
+            Ok(cred) => {
+                warn!(
+                    uid = cred.uid(),
+                    gid = cred.gid(),
+                    "{what} connection refused"
+                );
+                Err(Refusal::Denied)
+            }
+            Err(e) => {
+                warn!(error = %e, "cannot read {what} peer credentials");
+                Err(Refusal::Unknown)
+            }
+        }
+    }
+
     /// Whether a peer with these credentials may talk to the service.
     pub fn allows(&self, uid: u32, gid: u32) -> bool {
         // SAFETY: geteuid has no preconditions and cannot fail.

@@ -19,6 +19,7 @@ use tokio::sync::{Semaphore, mpsc, watch};
 use tracing::{debug, info, warn};
 
 pub use super::access::{AccessPolicy, Peer};
+use super::access::{DENIED, Refusal};
 pub use super::handler::{EventSink, Handler};
 pub use super::limits::ServerLimits;
 pub use super::listener::ServerError;
@@ -62,29 +63,13 @@ pub async fn serve<H: Handler>(
             break;
         };
         // Credentials first: even an over-limit connection may execute `stop`.
-        let peer = match stream.peer_cred() {
-            Ok(cred) if policy.allows(cred.uid(), cred.gid()) => Peer {
-                uid: cred.uid(),
-                pid: cred.pid().unwrap_or(0),
-            },
-            Ok(cred) => {
-                warn!(
-                    uid = cred.uid(),
-                    gid = cred.gid(),
-                    "operator connection refused"
-                );
-                reject(
-                    stream,
-                    ErrorCode::NotReady,
-                    "permission denied: uid/gid not allowed by operator.allowed_uids/gids",
-                )
-                .await;
+        let peer = match policy.admit(&stream, "operator socket") {
+            Ok(peer) => peer,
+            Err(Refusal::Denied) => {
+                reject(stream, ErrorCode::NotReady, DENIED).await;
                 continue;
             }
-            Err(e) => {
-                warn!(error = %e, "cannot read operator peer credentials");
-                continue;
-            }
+            Err(Refusal::Unknown) => continue,
         };
         let handler = handler.clone();
         if let Ok(permit) = clients.clone().try_acquire_owned() {

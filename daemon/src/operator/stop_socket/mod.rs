@@ -37,7 +37,7 @@ use tokio::io::AsyncWriteExt;
 use tokio::net::{UnixListener, UnixStream};
 use tokio::sync::{mpsc, watch};
 use tokio::time::Instant;
-use tracing::{debug, info, warn};
+use tracing::{debug, info};
 
 mod line;
 mod slots;
@@ -45,7 +45,7 @@ mod slots;
 use line::{Read1, read_available};
 use slots::{Live, LiveGuard, Reading, Slots};
 
-use super::access::{AccessPolicy, Peer};
+use super::access::{AccessPolicy, DENIED, Peer, Refusal};
 use super::handler::{EventSink, Handler};
 use fri_api::protocol::{Command, ErrorCode, OperatorError, Reply, RequestId, parse_request};
 
@@ -119,27 +119,15 @@ pub async fn serve<H: Handler>(
 /// line), with the connection off the reactor: the first read is a plain non-blocking read of
 /// what is there.
 fn admitted(stream: UnixStream, policy: &AccessPolicy) -> Option<(StdStream, Peer)> {
-    let peer = match stream.peer_cred() {
-        Ok(cred) if policy.allows(cred.uid(), cred.gid()) => Peer {
-            uid: cred.uid(),
-            pid: cred.pid().unwrap_or(0),
-        },
-        Ok(cred) => {
-            warn!(
-                uid = cred.uid(),
-                gid = cred.gid(),
-                "stop socket connection refused"
-            );
+    let peer = match policy.admit(&stream, "stop socket") {
+        Ok(peer) => peer,
+        Err(Refusal::Denied) => {
             if let Ok(s) = stream.into_std() {
-                let denied = "permission denied: uid/gid not allowed by operator.allowed_uids/gids";
-                reply_now(&s, None, ErrorCode::NotReady, denied);
+                reply_now(&s, None, ErrorCode::NotReady, DENIED);
             }
             return None;
         }
-        Err(e) => {
-            warn!(error = %e, "cannot read stop socket peer credentials");
-            return None;
-        }
+        Err(Refusal::Unknown) => return None,
     };
     Some((stream.into_std().ok()?, peer))
 }

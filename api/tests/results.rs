@@ -80,8 +80,10 @@ fn status_connected_and_disconnected() {
         "robot": {"model": "lwr4", "calibration": {
             "path": "/etc/fri-service/arm.toml", "logs": ["run1.csv"], "duration_s": 25.1,
             "residual_rms_nominal": ([1.0; 7]), "heldout_rms": ([0.3; 7]), "offset": ([0.5; 7])}},
+        "dropped": {"loop_events": 3, "ipc_messages": null},
     });
     let s: StatusResult = round_trip(connected.clone());
+    assert_eq!(s.dropped.unwrap().loop_events, 3);
     assert_eq!(s.robot.as_ref().unwrap().model, "lwr4");
     assert_eq!(s.fri.unwrap().cycles, 1234);
     assert!(matches!(
@@ -105,6 +107,7 @@ fn status_connected_and_disconnected() {
         "state": null,
         "unknown_payload": null,
         "robot": null,
+        "dropped": null,
     });
     // Held by a collision: the state names the cause and the controller's view.
     let mut held = connected.clone();

@@ -114,6 +114,9 @@ async fn identify_drives_the_excitation_and_writes_the_file_the_service_loads() 
     assert!(fit["duration_s"].as_f64().unwrap() > 5.0, "{fit:#}");
     let after = status(&mut c).await;
     assert_eq!(after["command_mode"], false, "{after:#}");
+    // What the loop dropped rather than wait is counted (iceoryx2 is off here).
+    assert!(after["dropped"]["loop_events"].is_u64(), "{after:#}");
+    assert!(after["dropped"]["ipc_messages"].is_null(), "{after:#}");
     assert!(joint_distance(&after["q"], &start) < 0.01, "{after:#}");
     // The file is this arm's: the nominal model accepts it, and the service starts with it.
     let text = std::fs::read_to_string(&arm).unwrap();

@@ -47,7 +47,7 @@ pub use record::RecordResult;
 pub use resume::ResumeResult;
 pub use sample::SampleResult;
 pub use state::ServiceState;
-pub use status::{ArmCalibration, FriStatus, RobotModelStatus, StatusResult};
+pub use status::{ArmCalibration, DroppedCounts, FriStatus, RobotModelStatus, StatusResult};
 pub use stop::{ControllerLink, StopResult};
 pub use tare::{ProcedureTiming, TareLoad, TareResult};
 pub use watch::{

@@ -81,6 +81,19 @@ pub struct StatusResult {
     /// The robot model the service predicts torque with (absent from older daemons).
     #[serde(default)]
     pub robot: Option<RobotModelStatus>,
+    /// What the service dropped rather than delay the 1 kHz loop (absent from older daemons).
+    #[serde(default)]
+    pub dropped: Option<DroppedCounts>,
+}
+
+/// Messages the service dropped since its start rather than let the loop wait.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct DroppedCounts {
+    /// Cycle events (states, collisions, stops) the loop could not queue for the operator side:
+    /// workflows and `watch` missed them.
+    pub loop_events: u64,
+    /// Messages the iceoryx2 publisher thread could not take (`null`: iceoryx2 disabled).
+    pub ipc_messages: Option<u64>,
 }
 
 /// The robot model the observer, the detector and the estimate against a model use.

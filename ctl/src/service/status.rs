@@ -20,7 +20,8 @@ does not move).
 
 Shows whether the controller is connected (a measurement within 100 ms, or ten controller \
 cycles), the FRI state and quality with the KRL program's report, rejected datagrams by \
-reason, the controller's statistics of our answers, and per joint: positions (deg and rad), \
+reason, what the service dropped rather than delay its 1 kHz loop, the controller's statistics \
+of our answers, and per joint: positions (deg and rad), \
 velocities (deg/s), measured torques τ_J, model gravity, the controller's external-torque \
 estimate and the collision-observer residual (Nm). Then the applied payload (kg, mm in \
 frame 7), whether the payload is declared unknown (`expect-payload`: the armed monitor then tolerates a plausible flange load, fitted to the static samples taken since), the stored tare and the monitor's thresholds (Nm) and gains (1/s).";
@@ -117,6 +118,17 @@ pub(super) fn print(r: &StatusResult, out: &mut dyn Write) -> io::Result<()> {
             percent(c.miss_rate)
         )?;
         rejections(&f.statistics.rejections, out)?;
+    }
+    if let Some(d) = &r.dropped {
+        let ipc = d.ipc_messages.map_or_else(
+            || "iceoryx2 off".to_owned(),
+            |n| format!("{n} iceoryx2 messages"),
+        );
+        writeln!(
+            out,
+            "dropped        {} loop events (workflows and watch missed them), {ipc}",
+            d.loop_events
+        )?;
     }
     match (r.cycle, r.time_s) {
         (Some(cycle), Some(t)) => writeln!(out, "cycle          {cycle}  t = {} s", fixed(t, 3))?,

@@ -73,6 +73,8 @@ pub struct ServiceCore {
     pub(crate) rt: SyncSender<CycleRequest>,
     /// The operator's stops, outside `rt` (no queued request delays them).
     pub(crate) stop_latch: super::cycle::StopLatch,
+    /// The loop's count of the events it dropped (shown in `status`).
+    pub(crate) dropped_events: super::cycle::DroppedEvents,
     pub(crate) store: StateStore,
     pub(crate) state: Mutex<Persistent>,
     pub(crate) workflow: tokio::sync::Mutex<()>,
@@ -146,8 +148,8 @@ impl ServiceCore {
     /// directory. `config` is the configuration file's: the stored monitor settings are put in
     /// force over it ([`crate::service::with_stored_monitor`]), and it stays what
     /// [`Self::weaker_than_configuration`] compares them with; `audit` is the trail the stream
-    /// thread writes the loop's own changes to; `stop_latch` is the loop's
-    /// ([`super::cycle::StopLatch`]).
+    /// thread writes the loop's own changes to; `stop_latch` and `dropped_events` are the loop's
+    /// ([`super::cycle::StopLatch`], [`super::cycle::DroppedEvents`]).
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         config: Config,
@@ -162,6 +164,7 @@ impl ServiceCore {
         fri_state: Option<FriStateSource>,
         audit: Arc<crate::audit::Audit>,
         stop_latch: super::cycle::StopLatch,
+        dropped_events: super::cycle::DroppedEvents,
     ) -> Self {
         let payload_origin = payload.map(|_| fri_api::origin::Origin::Restored);
         let in_force = monitor
@@ -188,6 +191,7 @@ impl ServiceCore {
             shared,
             rt,
             stop_latch,
+            dropped_events,
             store,
             state: Mutex::new(state),
             workflow: tokio::sync::Mutex::new(()),

@@ -243,6 +243,7 @@ impl RunningService {
         let settings = ProcessorSettings::from_config(&effective);
         let processor = CycleProcessor::new(settings, monitor, request_rx, event_tx);
         let stop_latch = processor.stop_latch();
+        let dropped_events = processor.dropped_events();
         if let Some(p) = &payload {
             request_tx
                 .try_send(CycleRequest::SetPayload(Some(compensation(p))))
@@ -283,6 +284,7 @@ impl RunningService {
             })),
             audit,
             stop_latch,
+            dropped_events,
         ));
         restored.audit(&core);
         Ok(Self {

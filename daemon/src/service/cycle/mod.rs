@@ -49,11 +49,13 @@ use crate::motion::{JointMove, MotionLimits};
 use fri_api::ipc::flags;
 
 mod command;
+mod dropped;
 mod publish;
 mod requests;
 mod stop_latch;
 mod unknown_payload;
 
+pub use dropped::DroppedEvents;
 pub use stop_latch::StopLatch;
 
 type V7 = SVector<f64, 7>;
@@ -166,7 +168,7 @@ pub struct CycleProcessor {
     stop_latch: StopLatch,
     stops_handled: u64,
     events: SyncSender<CycleEvent>,
-    dropped_events: u64,
+    dropped_events: DroppedEvents,
     cycle: u64,
     time_s: f64,
     previous_q: Option<V7>,
@@ -226,7 +228,7 @@ impl CycleProcessor {
             stop_latch: StopLatch::default(),
             stops_handled: 0,
             events,
-            dropped_events: 0,
+            dropped_events: DroppedEvents::default(),
             cycle: 0,
             time_s: 0.0,
             previous_q: None,
@@ -259,9 +261,9 @@ impl CycleProcessor {
         self.stop_latch.clone()
     }
 
-    /// Events dropped because the non-real-time side was behind.
-    pub fn dropped_events(&self) -> u64 {
-        self.dropped_events
+    /// The count of the events dropped because the non-real-time side was behind, shared.
+    pub fn dropped_events(&self) -> DroppedEvents {
+        self.dropped_events.clone()
     }
 
     /// Cycles processed.
@@ -300,7 +302,7 @@ impl CycleProcessor {
     fn emit(&mut self, e: CycleEvent) {
         if let Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) = self.events.try_send(e)
         {
-            self.dropped_events += 1;
+            self.dropped_events.add();
         }
     }
 

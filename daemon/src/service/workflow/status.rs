@@ -66,6 +66,10 @@ impl ServiceCore {
             ros2_unauthenticated_commands: self.config.ros2_unauthenticated_commands(),
             unknown_payload: self.unknown_payload_status(),
             robot: Some(self.arm.status()),
+            dropped: Some(fri_api::results::DroppedCounts {
+                loop_events: self.dropped_events.count(),
+                ipc_messages: self.ipc.as_ref().map(crate::ipc::IpcSender::dropped),
+            }),
         }
     }
 }

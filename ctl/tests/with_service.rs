@@ -2,6 +2,8 @@
 //! lockstep over UDP loopback: what the operator types reaches the service, and what it prints.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
+mod common;
+
 use std::time::Duration;
 
 use fri_api::client::Client;
@@ -71,48 +73,35 @@ async fn fri_ctl_talks_to_the_running_service() {
     let mut c = h.client().await.unwrap();
     wait_connected(&mut c).await;
     let socket = h.socket.clone();
-    let run = |args: Vec<String>| {
-        let socket = socket.clone();
-        tokio::task::spawn_blocking(move || {
-            std::process::Command::new(env!("CARGO_BIN_EXE_fri-ctl"))
-                .args(&args)
-                .arg("--socket")
-                .arg(&socket)
-                .output()
-                .unwrap()
-        })
-    };
-    let out = run(vec!["status".into(), "--json".into()]).await.unwrap();
+    let out = common::fri_ctl(&socket, &["status", "--json"]).await;
     assert!(out.status.success(), "{out:?}");
     let status: Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(status["connected"], true);
-    let out = run([
-        "apply-payload",
-        "--mass",
-        "1.5",
-        "--com",
-        "0,0.01,-0.02",
-        "--json",
-    ]
-    .map(String::from)
-    .to_vec())
-    .await
-    .unwrap();
+    let out = common::fri_ctl(
+        &socket,
+        &[
+            "apply-payload",
+            "--mass",
+            "1.5",
+            "--com",
+            "0,0.01,-0.02",
+            "--json",
+        ],
+    )
+    .await;
     assert!(out.status.success(), "{out:?}");
-    let out = run(["apply-payload", "--mass", "-1", "--com", "0,0,0"]
-        .map(String::from)
-        .to_vec())
-    .await
-    .unwrap();
+    let out = common::fri_ctl(
+        &socket,
+        &["apply-payload", "--mass", "-1", "--com", "0,0,0"],
+    )
+    .await;
     assert_eq!(out.status.code(), Some(64), "{out:?}");
     let status = call(&mut c, Command::Status).await.unwrap();
     assert_eq!(status["payload"]["mass"], 1.5);
     assert_eq!(status["payload"]["com"][2], -0.02);
-    let out = run(vec!["stop".into()]).await.unwrap();
+    let out = common::fri_ctl(&socket, &["stop"]).await;
     assert!(out.status.success());
-    let out = run(["tare", "--poses", "2"].map(String::from).to_vec())
-        .await
-        .unwrap();
+    let out = common::fri_ctl(&socket, &["tare", "--poses", "2"]).await;
     assert_eq!(out.status.code(), Some(5), "tare while stopped: {out:?}");
     drop(driver.join());
     h.stop().await.unwrap();
@@ -366,57 +355,45 @@ async fn fri_ctl_collision_configure_checks_ranges_and_the_service_keeps_the_set
     };
     let h = InProcess::start(config()).await.unwrap();
     let socket = h.socket.clone();
-    let run = move |args: &[&str]| {
-        let args: Vec<String> = args.iter().map(|a| (*a).to_owned()).collect();
-        let socket = socket.clone();
-        tokio::task::spawn_blocking(move || {
-            std::process::Command::new(env!("CARGO_BIN_EXE_fri-ctl"))
-                .args(&args)
-                .arg("--socket")
-                .arg(&socket)
-                .output()
-                .unwrap()
-        })
-    };
-    let out = run(&["collision", "configure", "--gains", "1e5"])
-        .await
-        .unwrap();
+    let out = common::fri_ctl(&socket, &["collision", "configure", "--gains", "1e5"]).await;
     assert!(!out.status.success(), "{out:?}");
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         stderr.contains("gains[0] = 100000 1/s is outside 1…500 1/s"),
         "{stderr}"
     );
-    let out = run(&["collision", "configure", "--thresholds", "6,6,6,6,6,6,30"])
-        .await
-        .unwrap();
+    let out = common::fri_ctl(
+        &socket,
+        &["collision", "configure", "--thresholds", "6,6,6,6,6,6,30"],
+    )
+    .await;
     assert!(!out.status.success(), "{out:?}");
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         stderr.contains("thresholds[6] = 30 Nm is outside 0.1…9.5 Nm"),
         "{stderr}"
     );
-    let out = run(&["collision", "configure", "--thresholds", "1,2"])
-        .await
-        .unwrap();
+    let out = common::fri_ctl(&socket, &["collision", "configure", "--thresholds", "1,2"]).await;
     assert!(!out.status.success(), "{out:?}");
     assert!(
         String::from_utf8_lossy(&out.stderr).contains("one value for every joint or 7"),
         "{out:?}"
     );
-    let out = run(&[
-        "collision",
-        "configure",
-        "--thresholds",
-        "4",
-        "--reaction",
-        "pause",
-        "--pause-s",
-        "1.5",
-        "--json",
-    ])
-    .await
-    .unwrap();
+    let out = common::fri_ctl(
+        &socket,
+        &[
+            "collision",
+            "configure",
+            "--thresholds",
+            "4",
+            "--reaction",
+            "pause",
+            "--pause-s",
+            "1.5",
+            "--json",
+        ],
+    )
+    .await;
     assert!(out.status.success(), "{out:?}");
     let m: Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(m["thresholds"], serde_json::json!(([4.0; 7])));

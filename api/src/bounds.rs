@@ -147,6 +147,12 @@ pub fn threshold(j: usize) -> Range {
     )
 }
 
+/// Joint `j`'s torque range, Nm (± the LWR 4+ torque limit): e.g. an identified arm's offset.
+pub fn joint_torque(j: usize) -> Range {
+    let limit = LWR4_TORQUE_LIMITS_NM[j.min(JOINTS - 1)];
+    Range::new(-limit, limit, "Nm")
+}
+
 /// Smallest observer gain K_I, 1/s: a 1 s time constant; slower residuals cannot follow a
 /// contact of tens of milliseconds at all.
 pub const MIN_GAIN: f64 = 1.0;
@@ -250,6 +256,21 @@ pub const CALIBRATION_DURATION_S: Range = Range::new(20.0, 3600.0, "s");
 /// `budget_per_hour` of `collision-calibrate`, false alarms per hour: from one in 10 000 h (the
 /// fit's extrapolation is already far beyond any recording) to 10 per hour.
 pub const FALSE_ALARM_BUDGET: Range = Range::new(1e-4, 10.0, "1/h");
+
+/// Length of the recording behind installed thresholds (`collision-install`), s of robot time:
+/// an offline fit may use logs shorter or longer than `collision-calibrate` records.
+pub const FITTED_DURATION_S: Range = Range::new(1.0, 360_000.0, "s");
+
+/// Block length of an extreme-value fit, s.
+pub const FIT_BLOCK_S: Range = Range::new(MIN_CYCLE_S, 3600.0, "s");
+
+/// A coefficient of a threshold schedule or a covered speed or acceleration (units per field):
+/// non-negative and finite; the upper end only excludes nonsense, the thresholds' own range
+/// caps every scheduled threshold.
+pub const SCHEDULE_COEFFICIENT: Range = Range::new(0.0, 1e6, "");
+
+/// Extreme-value scale of a threshold schedule (threshold over the residual's envelope).
+pub const SCHEDULE_SCALE: Range = Range::new(1e-6, 1e6, "");
 
 /// Joint `j`'s rated speed, rad/s (the upper bound of `motion.max_velocity` before the
 /// set-point step limit).

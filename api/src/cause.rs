@@ -140,6 +140,17 @@ pub enum Cause {
         /// The joints above it.
         joints: Vec<ThresholdAboveCeiling>,
     },
+    /// Thresholds fitted offline for another setup than this service's (`collision-install`):
+    /// the residual they bound was computed at another controller period or on another arm
+    /// model, so they would not bound this service's residual.
+    ThresholdsForAnotherSetup {
+        /// What differs: `period_s` or `arm_offset`.
+        field: String,
+        /// The thresholds' value, with its unit.
+        thresholds: String,
+        /// This service's value, with its unit.
+        service: String,
+    },
 }
 
 /// A calibrated threshold above the configured ceiling: at rest, or as the median of the

@@ -6,17 +6,19 @@
 //! operator-socket client and framing, the `#[repr(C)]` shared-memory messages, and the bounds
 //! every input is checked against.
 
-pub mod arguments;
 pub mod bounds;
 pub mod cause;
 pub mod client;
 pub mod frame;
 pub mod fri_context;
 pub mod ipc;
+/// The collision monitor as the service runs it, for the service and the offline tools.
+pub mod monitor;
 pub mod origin;
 pub mod pattern;
 pub mod protocol;
 pub mod results;
+pub mod schedule;
 pub mod stdio;
 
 /// Joints of the LWR 4+ (the FRI datagram's joint count).

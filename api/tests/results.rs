@@ -349,7 +349,7 @@ fn watch_events_with_their_causes() {
     for reason in [
         json!({"kind": "controller-restarted"}),
         json!({"kind": "gap", "cycles": 12}),
-        json!({"kind": "command-mode-lost"}),
+        json!({"kind": "stopped-in-gap", "cycles": 3}),
     ] {
         event(
             "monitor-restarted",

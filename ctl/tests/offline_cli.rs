@@ -506,6 +506,22 @@ fn estimate_motion_on_generated_sweeps() {
     assert!((m / 3.028 - 1.0).abs() < 0.005, "{m}");
     let e = err_text(&["estimate-motion", "--log", &fixture("lwr4_loaded_q10.csv")]);
     assert!(e.contains("no column `t`"), "{e}");
+    // A 2 s log (issue 23 item 4): the zero-phase filter's 3 s edges leave nothing; the error
+    // says so and what to do, not "record more static poses".
+    let text = std::fs::read_to_string(&paths[1]).unwrap();
+    let short = dir.join("short.csv");
+    let lines: Vec<&str> = text.lines().take(1 + 401).collect();
+    std::fs::write(&short, lines.join("\n") + "\n").unwrap();
+    let e = err_text(&["estimate-motion", "--log", short.to_str().unwrap()]);
+    for n in [
+        "lasts 2.000 s",
+        "3.000 s at each end",
+        "record at least",
+        "--trim-s",
+    ] {
+        assert!(e.contains(n), "`{n}` not in {e}");
+    }
+    assert!(!e.contains("static poses"), "{e}");
     // An implausible joint value in a log is named with its row.
     let text = std::fs::read_to_string(&paths[1]).unwrap();
     let bad = dir.join("bad.csv");

@@ -112,6 +112,12 @@ impl Handler for FakeService {
                     .await;
                 Ok(calibration(&monitor))
             }
+            Request::CollisionInstall(r) => Ok(json!({
+                "armed": true, "thresholds": Q, "gains": Q, "persisted": true,
+                "calibration": {"budget_per_hour": 0.1, "duration_s": 25.0, "blocks": 24,
+                                "block_s": 1.0, "max_speed": Q, "max_acceleration": Q,
+                                "installed_from": r.source},
+            })),
             Request::Stop => Ok(json!({"stopped": true, "controller": "connected"})),
             Request::Resume => Ok(json!({"stopped": false})),
             Request::Record { .. } => Ok(json!({"rows": 5, "path": "/rec/x.csv", "lost": 2})),
@@ -262,7 +268,7 @@ async fn every_command_prints_text_with_units() {
             &[
                 "payload UNKNOWN",
                 "at most 4.00 kg within 0.300 m",
-                "2 static sample(s): 3.0310 kg",
+                "2 static samples: 3.0310 kg",
             ],
         ),
         (&["expect-payload", "--end"], &["payload known"]),

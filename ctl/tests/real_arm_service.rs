@@ -8,128 +8,20 @@
 //! stops the start, naming `robot.calibration` and the cause.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
-use std::net::UdpSocket;
-use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
-use std::sync::{Arc, Mutex};
+mod real_arm;
+
+use std::path::Path;
 use std::time::Duration;
 
 use fri_api::protocol::Command;
-use fri_service::config::{Config, ReactionMode};
 use fri_service::service::RunningService;
-use fri_service::testkit::{InProcess, local_config};
-use mock_robot::replay::Replay;
-use mock_robot::server::{RunCounters, run_with};
-use mock_robot::{ServerConfig, TimingMode};
+use fri_service::testkit::InProcess;
 use serde_json::Value;
 
-/// Per-joint thresholds, Nm, between the residual peaks the identified arm leaves on run 2 and
-/// those the nominal model leaves (`fri-ctl offline monitor --log run2 [--calibration arm.toml]`;
-/// BENCHMARKS.md, "Real LWR 4+").
-const THRESHOLDS: [f64; 7] = [1.5, 3.5, 1.5, 3.0, 2.0, 0.9, 0.8];
-
-fn recording(name: &str) -> PathBuf {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/data/real-lwr4")
-        .join(name);
-    assert!(
-        path.is_file(),
-        "{} is missing: the real recordings must be beside the clone (../shared)",
-        path.display()
-    );
-    path
-}
-
-/// `fri-ctl offline identify --log run1 --out DIR/arm.toml`.
-fn identify(dir: &Path) -> PathBuf {
-    let out = dir.join("arm.toml");
-    let run = std::process::Command::new(env!("CARGO_BIN_EXE_fri-ctl"))
-        .args(["offline", "identify", "--log"])
-        .arg(recording("flobaroid-run1.csv"))
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
-    out
-}
-
-fn config(dir: &Path, name: &str, calibration: Option<PathBuf>) -> Config {
-    let mut c = local_config(dir, name);
-    c.iceoryx2.enabled = false;
-    c.robot.calibration = calibration;
-    c.observer.thresholds = THRESHOLDS;
-    // every contact reported, none latched
-    c.reaction.policy = ReactionMode::Report;
-    c
-}
-
-/// Every `collision` event of a `watch` on its own connection (controller time, s).
-async fn collisions(service: &InProcess) -> Arc<Mutex<Vec<f64>>> {
-    let mut watcher = service.client().await.unwrap();
-    let times = Arc::new(Mutex::new(Vec::new()));
-    let sink = times.clone();
-    let (subscribed, confirmed) = tokio::sync::oneshot::channel();
-    let mut subscribed = Some(subscribed);
-    tokio::spawn(async move {
-        let _ = watcher
-            .call(Command::Watch { state_every: None }, |e, d| {
-                if e == "watching" {
-                    if let Some(tx) = subscribed.take() {
-                        let _ = tx.send(());
-                    }
-                } else if e == "collision" {
-                    sink.lock()
-                        .unwrap()
-                        .push(d["time_s"].as_f64().unwrap_or(f64::NAN));
-                }
-            })
-            .await;
-    });
-    confirmed.await.unwrap();
-    times
-}
-
-/// Plays run 2 to its end through a service started with `config`; the collision times and the
-/// service's status at the end.
-async fn replay_run_2(config: Config) -> (Vec<f64>, Value) {
-    let service = InProcess::start(config).await.unwrap();
-    let times = collisions(&service).await;
-    let fri = service.fri;
-    let player = tokio::task::spawn_blocking(move || {
-        let mut replay = Replay::from_file(&recording("flobaroid-run2.csv"), 1).unwrap();
-        let udp = UdpSocket::bind("127.0.0.1:0").unwrap();
-        let mode = TimingMode::Lockstep {
-            answer_timeout: Duration::from_millis(500),
-        };
-        run_with(
-            &mut replay,
-            &udp,
-            &ServerConfig::loopback(fri, mode),
-            &AtomicBool::new(false),
-            &RunCounters::default(),
-            |_| {},
-        )
-        .unwrap()
-    });
-    let summary = player.await.unwrap();
-    assert!(summary.cycles > 24_000, "{summary:?}");
-    let mut client = service.client().await.unwrap();
-    let status = client
-        .call_typed::<Value>(Command::Status, |_| {})
-        .await
-        .unwrap()
-        .unwrap();
-    // the events of the last cycles reach the watcher
-    tokio::time::sleep(Duration::from_millis(200)).await;
-    let times = times.lock().unwrap().clone();
-    service.stop().await.unwrap();
-    (times, status)
-}
+use real_arm::{
+    THRESHOLDS, config, identify, play, recording, replay_on, replay_run_2, replay_run_2_on,
+    without_edges,
+};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_real_run_holds_the_thresholds_with_the_identified_arm_and_not_without() {
@@ -236,4 +128,205 @@ fn a_calibration_that_is_not_this_arms_or_not_trusted_stops_the_start() {
     let robot = service.core.status().robot.unwrap();
     assert!(robot.calibration.is_some());
     service.shutdown();
+}
+
+/// `fri-ctl ARGS` (blocking, off the runtime's workers): exit code, stdout, stderr.
+async fn fri_ctl(args: Vec<std::ffi::OsString>) -> (i32, String, String) {
+    tokio::task::spawn_blocking(move || {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_fri-ctl"))
+            .args(&args)
+            .output()
+            .unwrap();
+        (
+            out.status.code().unwrap_or(-1),
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    })
+    .await
+    .unwrap()
+}
+
+/// `fri-ctl offline calibrate-thresholds` on run 1 (the identified `arm`, budget 0.1/h, `edge_s`
+/// dropped at each end) written to `out`; the file's JSON.
+async fn calibrate_offline(arm: &Path, out: &Path, edge_s: f64) -> Value {
+    let (code, _, err) = fri_ctl(
+        [
+            "offline".into(),
+            "calibrate-thresholds".into(),
+            "--log".into(),
+            recording("flobaroid-run1.csv").into_os_string(),
+            "--edge-s".into(),
+            edge_s.to_string().into(),
+            "--calibration".into(),
+            arm.as_os_str().to_owned(),
+            "--out".into(),
+            out.as_os_str().to_owned(),
+        ]
+        .to_vec(),
+    )
+    .await;
+    assert_eq!(code, 0, "{err}");
+    serde_json::from_str(&std::fs::read_to_string(out).unwrap()).unwrap()
+}
+
+/// Issue 21 items 3 and 6: thresholds calibrated offline on run 1 (`offline
+/// calibrate-thresholds` on the identified arm), installed in the service with `collision
+/// configure --from`, hold run 2 replayed through it: no contact reported. The file is refused
+/// by a service on another arm model (the nominal one) and above the ceiling without
+/// `--allow-weak` (this arm's heavy-tailed joints reach it: BENCHMARKS.md, "Real LWR 4+").
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn thresholds_calibrated_offline_on_run_1_installed_in_the_service_hold_run_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let arm = identify(dir.path());
+    let thresholds = dir.path().join("run1-thresholds.json");
+    let file = calibrate_offline(&arm, &thresholds, 0.0).await;
+    let install = |socket: &Path, weak: bool| {
+        let mut a: Vec<std::ffi::OsString> = vec![
+            "collision".into(),
+            "configure".into(),
+            "--from".into(),
+            thresholds.clone().into_os_string(),
+            "--socket".into(),
+            socket.as_os_str().to_owned(),
+        ];
+        if weak {
+            a.push("--allow-weak".into());
+        }
+        a
+    };
+
+    // Another arm model: the nominal service refuses the file, naming the arm's offsets.
+    let nominal = InProcess::start(config(&dir.path().join("n"), "nominal", None))
+        .await
+        .unwrap();
+    let (code, out, err) = fri_ctl(install(&nominal.socket, true)).await;
+    assert_ne!(code, 0, "{out}");
+    assert!(
+        err.contains("arm_offset") && err.contains("nominal model"),
+        "{err}"
+    );
+    nominal.stop().await.unwrap();
+
+    let service = InProcess::start(config(&dir.path().join("i"), "identified", Some(arm)))
+        .await
+        .unwrap();
+    // Above the ceiling without --allow-weak: refused, the joints named, nothing installed.
+    let (code, out, err) = fri_ctl(install(&service.socket, false)).await;
+    assert_ne!(code, 0, "{out}");
+    assert!(
+        err.contains("calibration_ceiling_nm") && err.contains("--allow-weak"),
+        "{err}"
+    );
+    let (code, out, err) = fri_ctl(install(&service.socket, true)).await;
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("calibrated offline, installed from run1-thresholds.json"),
+        "{out}"
+    );
+    let status = real_arm::status(&service).await;
+    let monitor = &status["monitor"];
+    assert_eq!(monitor["schedule"], file["schedule"], "{monitor:#}");
+    assert_eq!(monitor["gains"], file["gains"], "{monitor:#}");
+    assert_eq!(
+        monitor["calibration"]["installed_from"], "run1-thresholds.json",
+        "{monitor:#}"
+    );
+
+    let (times, _) = replay_run_2_on(service).await;
+    assert_eq!(
+        times,
+        Vec::<f64>::new(),
+        "contacts reported on the untouched run 2 at thresholds calibrated on run 1"
+    );
+}
+
+/// Seconds of the recordings' filter edges dropped at each end (`offline --edge-s`).
+const EDGE_S: f64 = 0.5;
+
+/// Issue 21 item 2: `collision calibrate --source current-task` on a real arm's torques. Run 1,
+/// without its filter edges, plays through the service (the identified arm) at the controller's
+/// pace while the service records 20 s of it and fits the thresholds; they agree with `offline
+/// calibrate-thresholds --edge-s` on the same log where neither reaches the ceiling, survive a
+/// restart, and hold run 2 (without its edges): no contact reported.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_services_current_task_calibration_on_run_1_agrees_with_the_offline_one_and_holds_run_2()
+ {
+    let dir = tempfile::tempdir().unwrap();
+    let arm = identify(dir.path());
+    let run_1 = without_edges(dir.path(), "flobaroid-run1.csv", EDGE_S);
+    let run_2 = without_edges(dir.path(), "flobaroid-run2.csv", EDGE_S);
+    let offline = calibrate_offline(&arm, &dir.path().join("run1-thresholds.json"), EDGE_S).await;
+
+    let service = InProcess::start(config(&dir.path().join("s"), "current_task", Some(arm)))
+        .await
+        .unwrap();
+    // The request waits for the controller's first measurement; then run 1 plays at its pace.
+    let mut client = service.client().await.unwrap();
+    let calibration = tokio::spawn(async move {
+        client
+            .call_typed::<fri_api::results::CalibrateResult>(
+                Command::CollisionCalibrate {
+                    source: Some(fri_api::protocol::CalibrationSource::CurrentTask),
+                    duration_s: Some(20.0),
+                    budget_per_hour: None,
+                    apply: Some(true),
+                    allow_weaker: Some(true),
+                },
+                |_| {},
+            )
+            .await
+            .unwrap()
+    });
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let player = play(service.fri, run_1, true);
+    let result = calibration.await.unwrap();
+    let result = result.unwrap_or_else(|e| panic!("the calibration on run 1 failed: {e:?}"));
+    player.await.unwrap();
+    assert!(result.applied, "{result:?}");
+    assert!(
+        result.recording.duration_s >= 20.0,
+        "{:?}",
+        result.recording
+    );
+    let above: Vec<usize> = result.above_ceiling.iter().map(|a| a.joint).collect();
+    for j in 0..7 {
+        let ours = result.schedule.thresholds[j];
+        assert!(ours.is_finite() && ours > 0.0, "joint {}: {ours}", j + 1);
+    }
+    // Joints 1, 3 and 7 stay under the ceiling on this arm (BENCHMARKS.md, "Real LWR 4+"; the
+    // others' heavy tails reach it): the same log and pipeline, of which the service records
+    // 20 of the 25 s, give the same threshold at rest.
+    for joint in [1, 3, 7] {
+        assert!(
+            !above.contains(&joint),
+            "joint {joint}: {:?}",
+            result.above_ceiling
+        );
+        let ours = result.schedule.thresholds[joint - 1];
+        let theirs = offline["schedule"]["thresholds"][joint - 1]
+            .as_f64()
+            .unwrap();
+        assert!(
+            (ours / theirs - 1.0).abs() <= 0.35,
+            "joint {joint}: the service calibrated {ours:.2} Nm at rest, the offline tool {theirs:.2} Nm"
+        );
+    }
+
+    // Installed and persisted: a restart of the service restores them; run 2 plays through it.
+    service.stop().await.unwrap();
+    let arm = dir.path().join("arm.toml");
+    let service = InProcess::start(config(&dir.path().join("s"), "current_task", Some(arm)))
+        .await
+        .unwrap();
+    let (times, status) = replay_on(service, run_2).await;
+    assert_eq!(
+        status["monitor"]["schedule"]["thresholds"],
+        serde_json::to_value(result.schedule.thresholds).unwrap()
+    );
+    assert_eq!(
+        times,
+        Vec::<f64>::new(),
+        "contacts reported on the untouched run 2 at thresholds the service calibrated on run 1"
+    );
 }

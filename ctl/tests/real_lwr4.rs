@@ -4,8 +4,12 @@
 //! recording is a failure, never a skip.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
+mod real_arm;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+
+use real_arm::assert_no_payload;
 
 fn run(name: &str) -> String {
     let path = format!(
@@ -62,40 +66,176 @@ impl Drop for Dir {
     }
 }
 
-/// "mass M ± S kg" out of a `no payload` error.
-fn mass_of(text: &str) -> (f64, f64) {
-    let after = text
-        .split("the mass ")
-        .nth(1)
-        .unwrap_or_else(|| panic!("{text}"));
-    let mut words = after.split_whitespace();
-    let m: f64 = words.next().unwrap().parse().unwrap();
-    assert_eq!(words.next(), Some("±"), "{text}");
-    let s: f64 = words.next().unwrap().parse().unwrap();
-    (m, s)
+/// `offline identify` on the recording `name`, written to `out`; its JSON report.
+fn identify(name: &str, out: &str) -> serde_json::Value {
+    ok_json(&["identify", "--log", &run(name), "--out", out, "--json"])
 }
 
-fn assert_no_payload(text: &str, what: &str) {
-    assert!(text.contains("no payload is detected"), "{what}: {text}");
-    let (m, s) = mass_of(text);
+/// `offline calibrate-thresholds` on run 1 with the identified `arm` (budget 0.1/h), `edge`
+/// seconds dropped at each end, written to `out`; its JSON report.
+fn calibrate_run_1(arm: &str, out: &str, edge: &str) -> serde_json::Value {
+    ok_json(&[
+        "calibrate-thresholds",
+        "--log",
+        &run("flobaroid-run1.csv"),
+        "--calibration",
+        arm,
+        "--edge-s",
+        edge,
+        "--out",
+        out,
+        "--json",
+    ])
+}
+
+/// `offline monitor` over run 2 with the identified `arm` and the `thresholds` file, `edge`
+/// seconds dropped at each end; the log's JSON report.
+fn monitor_run_2(arm: &str, thresholds: &str, edge: &str) -> serde_json::Value {
+    let v = ok_json(&[
+        "monitor",
+        "--log",
+        &run("flobaroid-run2.csv"),
+        "--calibration",
+        arm,
+        "--thresholds",
+        thresholds,
+        "--edge-s",
+        edge,
+        "--json",
+    ]);
+    v["logs"][0].clone()
+}
+
+/// A monitor report with no crossing and no sample over its threshold.
+fn assert_never_crossed(log: &serde_json::Value) {
+    assert_eq!(log["crossings"].as_array().unwrap().len(), 0, "{log}");
     assert!(
-        m.abs() <= 2.0 * s && m.abs() <= 0.020,
-        "{what}: {m} ± {s} kg"
+        log["samples_over"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|n| n == 0),
+        "{log}"
     );
+}
+
+/// Joints whose calibrated threshold reaches the service's ceiling somewhere on the log.
+fn capped(fit: &serde_json::Value) -> Vec<usize> {
+    (0..7)
+        .filter(|&j| {
+            let max = fit["joints"][j]["threshold_max"].as_f64().unwrap();
+            max >= fri_api::bounds::threshold(j).max * (1.0 - 1e-9)
+        })
+        .map(|j| j + 1)
+        .collect()
+}
+
+/// The real recordings were filtered without time shift (their README): their first and last
+/// half second carry the filter's transient. Calibrated on all of run 1, joints 2, 4 and 6
+/// reach the ceiling (block maxima from the log's last second: scales 345, 9725 and 97 against
+/// 18, 14 and 10); with 0.5 s dropped at each end only joint 5 does, the others calibrate to a
+/// few Nm (median over the run), and run 2 without its edges is never crossed; played whole,
+/// it is crossed only inside its edges.
+#[test]
+fn without_the_recordings_filter_edges_only_joint_5_calibrates_at_the_ceiling_and_run_2_holds() {
+    let dir = Dir::new("edges");
+    let (arm, thresholds) = (dir.file("arm.toml"), dir.file("thresholds.json"));
+    let _ = identify("flobaroid-run1.csv", &arm);
+    let calibrate = |edge: &str| calibrate_run_1(&arm, &thresholds, edge);
+    let whole = capped(&calibrate("0"));
+    assert!([2, 4, 6].iter().all(|j| whole.contains(j)), "{whole:?}");
+    let fit = calibrate("0.5");
+    let edged = capped(&fit);
+    for j in [1, 2, 3, 4, 6, 7] {
+        assert!(!edged.contains(&j), "J{j} at the ceiling: {fit}");
+    }
+    let monitor = |edge: &str| monitor_run_2(&arm, &thresholds, edge);
+    let log = monitor("0.5");
+    assert_never_crossed(&log);
+    // played whole, run 2 is crossed only inside its own filter edges (joint 4 at 24.98 s of
+    // 25.13 s here): thresholds calibrated without the edges must be run without them too
+    let whole = monitor("0");
+    for crossing in whole["crossings"].as_array().unwrap() {
+        let t = crossing["time_s"].as_f64().unwrap();
+        assert!(!(0.5..=25.13 - 0.5).contains(&t), "inside the run: {whole}");
+    }
+    // the edge is checked against its range, named
+    let e = err_text(&[
+        "monitor",
+        "--log",
+        &run("flobaroid-run2.csv"),
+        "--edge-s",
+        "-1",
+    ]);
+    assert!(e.contains("--edge-s") && e.contains("0…10 s"), "{e}");
+    let e = err_text(&[
+        "monitor",
+        "--log",
+        &run("flobaroid-run2.csv"),
+        "--edge-s",
+        "11",
+    ]);
+    assert!(e.contains("--edge-s") && e.contains("11"), "{e}");
+}
+
+/// Times (s) at which joint `joint` (1-based) of a real recording reverses: its q̇ column
+/// changes sign.
+fn reversals(path: &str, joint: usize) -> Vec<f64> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    rows.windows(2)
+        .filter(|w| w[0][7 + joint] * w[1][7 + joint] < 0.0)
+        .map(|w| w[1][0])
+        .collect()
+}
+
+/// Why joint 5 calibrates to the ceiling (issue 21): its residual's largest peaks sit at its own
+/// velocity reversals (five in this excitation, four of them with q6 ≈ 0, where J5's inertia —
+/// and so its envelope's velocity-noise feature — is smallest). No envelope feature represents
+/// a reversal (|q̇| is zero there), so the few blocks holding one carry block maxima far above
+/// the rest: a heavy tail (shape 0.21–0.68) that the budget's extrapolation turns into the
+/// ceiling. It is not the Coulomb model's smoothness (the same five onsets at v0 = 0.005 and
+/// 0.05 rad/s), nor the envelope fit's weighting (fitted to relative error, J5 stays at the
+/// ceiling and J2 joins it). When a model or a feature covers the reversals, these onsets go
+/// and this test is to say so instead.
+#[test]
+fn joint_5s_largest_residuals_sit_at_its_velocity_reversals() {
+    let dir = Dir::new("reversals");
+    let arm = dir.file("arm.toml");
+    identify("flobaroid-run1.csv", &arm);
+    let log = monitor_run_2(&arm, "40,40,20,20,0.8,9,9", "0.5");
+    let onsets: Vec<f64> = log["crossings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| {
+            assert_eq!(c["joints"][0][0], 5, "{c}");
+            c["time_s"].as_f64().unwrap()
+        })
+        .collect();
+    let turns = reversals(&run("flobaroid-run2.csv"), 5);
+    assert!(onsets.len() >= 4, "{onsets:?} {log}");
+    for t in &onsets {
+        let nearest = turns
+            .iter()
+            .map(|r| (r - t).abs())
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            nearest < 0.15,
+            "J5 onset at {t} s is {nearest} s from a reversal {turns:?}"
+        );
+    }
 }
 
 #[test]
 fn thresholds_calibrated_on_run_1_are_never_crossed_on_run_2() {
     let dir = Dir::new("monitor");
     let (arm, thresholds) = (dir.file("arm.toml"), dir.file("thresholds.json"));
-    let id = ok_json(&[
-        "identify",
-        "--log",
-        &run("flobaroid-run1.csv"),
-        "--out",
-        &arm,
-        "--json",
-    ]);
+    let id = identify("flobaroid-run1.csv", &arm);
     let heldout = id["identified"]["fit"]["heldout_rms"].as_array().unwrap();
     assert!(
         heldout.iter().all(|v| v.as_f64().unwrap() < 0.35),
@@ -129,45 +269,23 @@ fn thresholds_calibrated_on_run_1_are_never_crossed_on_run_2() {
         &thresholds,
     ]);
     let text = String::from_utf8_lossy(&text.stdout).into_owned();
-    let capped: Vec<usize> = (0..7)
-        .filter(|&j| {
-            let max = fit["joints"][j]["threshold_max"].as_f64().unwrap();
-            max >= fri_api::bounds::threshold(j).max * (1.0 - 1e-9)
-        })
-        .collect();
+    let capped = capped(&fit);
     assert_eq!(
         text.contains("reaches the service's ceiling"),
         !capped.is_empty(),
         "{capped:?}: {text}"
     );
     for j in &capped {
-        assert!(text.contains(&format!("J{}", j + 1)), "{text}");
+        assert!(text.contains(&format!("J{j}")), "{text}");
     }
-    // the check below has teeth only where the fit bounds the residual: today J1, J3 and J7
-    // (J2, J4, J5, J6 reach the ceiling: heavy-tailed block maxima, BENCHMARKS.md "Real LWR 4+")
-    for j in [0, 2, 6] {
-        assert!(!capped.contains(&j), "J{} at the ceiling: {fit}", j + 1);
+    // the check below has teeth only where the fit bounds the residual: on the whole log J1, J3
+    // and J7 (J2, J4 and J6 reach the ceiling from the recording's filter edges, see the test
+    // above; J5 from heavy-tailed block maxima, BENCHMARKS.md "Real LWR 4+")
+    for j in [1, 3, 7] {
+        assert!(!capped.contains(&j), "J{j} at the ceiling: {fit}");
     }
-    let v = ok_json(&[
-        "monitor",
-        "--log",
-        &run("flobaroid-run2.csv"),
-        "--calibration",
-        &arm,
-        "--thresholds",
-        &thresholds,
-        "--json",
-    ]);
-    let log = &v["logs"][0];
-    assert_eq!(log["crossings"].as_array().unwrap().len(), 0, "{log}");
-    assert!(
-        log["samples_over"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .all(|n| n == 0),
-        "{log}"
-    );
+    let log = &monitor_run_2(&arm, &thresholds, "0");
+    assert_never_crossed(log);
     // 25 s at 1 ms, less the warm-up
     assert!(log["live_samples"].as_u64().unwrap() > 24_000, "{log}");
     // the identified observer leaves a residual of the identification's size, below the
@@ -207,23 +325,9 @@ fn thresholds_calibrated_on_run_1_are_never_crossed_on_run_2() {
 fn every_payload_route_reports_no_payload_on_an_unloaded_run() {
     let dir = Dir::new("routes");
     let arm = dir.file("arm.toml");
-    ok_json(&[
-        "identify",
-        "--log",
-        &run("flobaroid-run1.csv"),
-        "--out",
-        &arm,
-        "--json",
-    ]);
+    identify("flobaroid-run1.csv", &arm);
     let arm2 = dir.file("arm2.toml");
-    ok_json(&[
-        "identify",
-        "--log",
-        &run("flobaroid-run2.csv"),
-        "--out",
-        &arm2,
-        "--json",
-    ]);
+    identify("flobaroid-run2.csv", &arm2);
     let run2 = run("flobaroid-run2.csv");
     let run1 = run("flobaroid-run1.csv");
     // each run against the arm identified on the other
@@ -248,6 +352,102 @@ fn every_payload_route_reports_no_payload_on_an_unloaded_run() {
     assert_no_payload(&text, "tare route, run 1 on run 2");
 }
 
+/// `path` (a real recording: t, q, q̇, q̈, τ) written to `out` as if it had carried the paper's
+/// payload (3.028 kg, CoM z 119 mm, a cylinder r 40 mm, l 80 mm): its torques plus the
+/// payload's, by RNEA on the recorded q, q̇, q̈ (the arm's model error and noise stay real).
+fn with_paper_payload(path: &str, out: &str) {
+    use dynamics::{Data, InertialParameters, lwr4, rnea};
+    use nalgebra::{Matrix3, SVector, Vector3};
+    let (m, r, l) = (3.028, 0.04, 0.08);
+    let transverse = m * (3.0 * r * r + l * l) / 12.0;
+    let payload = InertialParameters::from_com(
+        m,
+        Vector3::new(0.0, 0.0, 0.119),
+        Matrix3::from_diagonal(&Vector3::new(transverse, transverse, 0.5 * m * r * r)),
+    );
+    let model = lwr4();
+    let loaded = model.with_payload(&payload);
+    let (mut data, mut loaded_data) = (Data::new(&model), Data::new(&loaded));
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    assert!(
+        header.starts_with("t,q1,") && header.ends_with(",tau7"),
+        "{header}"
+    );
+    let mut written = format!("{header}\n");
+    for line in lines {
+        let f: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+        let v = |k: usize| SVector::<f64, 7>::from_fn(|j, _| f[1 + 7 * k + j]);
+        let (q, qd, qdd) = (v(0), v(1), v(2));
+        let tau = v(3) + rnea(&loaded, &mut loaded_data, &q, &qd, &qdd)
+            - rnea(&model, &mut data, &q, &qd, &qdd);
+        let cells: Vec<String> = f[..22]
+            .iter()
+            .chain(tau.iter())
+            .map(|x| format!("{x:e}"))
+            .collect();
+        written += &cells.join(",");
+        written.push('\n');
+    }
+    std::fs::write(out, written).unwrap();
+}
+
+/// Issue 21 item 4 as the operator reads it: run 2 with the paper's payload added, against the
+/// arm identified on run 1. This excitation cannot resolve a payload's inertia (σ ≈ 0.2 kg·m²,
+/// every inertia a 3 kg flange load can have); both routes print the mass and the centre of
+/// mass, say that the inertia is not resolved and print no inertia numbers. Before, both
+/// refused the estimate as "no rigid body" (inertia 2.2σ below zero).
+#[test]
+fn a_known_payload_on_run_2_gives_mass_and_com_and_says_the_inertia_is_not_resolved() {
+    let dir = Dir::new("known");
+    let arm = dir.file("arm.toml");
+    identify("flobaroid-run1.csv", &arm);
+    let loaded = dir.file("run2-loaded.csv");
+    with_paper_payload(&run("flobaroid-run2.csv"), &loaded);
+    for route in [
+        ["estimate-motion", "--log"],
+        ["coefficients", "--loaded-log"],
+    ] {
+        let mut args = vec![route[0], route[1], &loaded, "--calibration", &arm];
+        let out = fri_ctl(&args);
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "{route:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(text.contains("mass     3.0"), "{route:?}: {text}");
+        assert!(text.contains("NOT RESOLVED"), "{route:?}: {text}");
+        assert!(text.contains("inertia not resolved"), "{route:?}: {text}");
+        assert!(!text.contains("Jxx"), "{route:?}: {text}");
+        args.push("--json");
+        let v = ok_json(&args);
+        let e = if v["estimate"].is_object() {
+            &v["estimate"]
+        } else {
+            &v
+        };
+        assert_eq!(e["inertia_resolved"], false, "{route:?}: {e}");
+        let (mass, std) = (
+            e["mass"].as_f64().unwrap(),
+            e["parameters_std"][0].as_f64().unwrap(),
+        );
+        assert!(
+            (mass - 3.028).abs() <= 2.0 * std,
+            "{route:?}: {mass} ± {std}"
+        );
+        let (cz, cz_std) = (
+            e["com"][2].as_f64().unwrap(),
+            e["com_std"][2].as_f64().unwrap(),
+        );
+        assert!(
+            (cz - 0.119).abs() <= 2.0 * cz_std,
+            "{route:?}: {cz} ± {cz_std}"
+        );
+    }
+}
+
 #[test]
 fn broken_or_foreign_files_are_refused_naming_the_cause() {
     let dir = Dir::new("hostile");
@@ -256,30 +456,14 @@ fn broken_or_foreign_files_are_refused_naming_the_cause() {
     let bad = dir.file("bad.json");
     let arm = dir.file("arm.toml");
     let thresholds = dir.file("thr.json");
-    ok_json(&[
-        "identify",
-        "--log",
-        &run("flobaroid-run1.csv"),
-        "--out",
-        &arm,
-        "--json",
-    ]);
-    ok_json(&[
-        "calibrate-thresholds",
-        "--log",
-        &run("flobaroid-run1.csv"),
-        "--calibration",
-        &arm,
-        "--out",
-        &thresholds,
-        "--json",
-    ]);
+    identify("flobaroid-run1.csv", &arm);
+    calibrate_run_1(&arm, &thresholds, "0");
     let mut v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&thresholds).unwrap()).unwrap();
     v["schedule"]["thresholds"][2] = serde_json::json!(1e9);
     std::fs::write(&bad, v.to_string()).unwrap();
     let text = err_text(&["monitor", "--log", &run2, "--thresholds", &bad]);
-    assert!(text.contains("schedule.thresholds[3]"), "{text}");
+    assert!(text.contains("schedule.thresholds[2] (joint 3)"), "{text}");
     std::fs::write(&bad, "{\"format\": 1").unwrap();
     let text = err_text(&["monitor", "--log", &run2, "--thresholds", &bad]);
     assert!(text.contains("thresholds file"), "{text}");

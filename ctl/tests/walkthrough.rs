@@ -2,7 +2,8 @@
 //! written: the simulated controller starts unloaded and takes an operator's requests on its
 //! control socket; `fri-ctl` tares, declares the payload unknown, the simulator is handed the
 //! payload (the grasp), `estimate-payload --apply` estimates it with the monitor armed, and a
-//! push on link 4 is detected and holds the arm until `resume`. The service in-process, the
+//! push on link 4 is detected and holds the arm until `resume`, while `fri-ctl watch` (its own
+//! process from the start) shows every command, change and event. The service in-process, the
 //! simulator in lockstep on its own thread (as the binary runs it, with its control socket),
 //! the requests to the control socket the lines `mock-robot control` sends. What each command
 //! printed is checked against the output the README shows for it (numbers masked: they are
@@ -171,6 +172,37 @@ async fn the_readme_walkthrough_with_the_simulator() {
     }
     assert!(connected, "the service never saw the simulator");
 
+    // fri-ctl watch, in its own terminal from the start: the events as they happen.
+    let mut watch = std::process::Command::new(env!("CARGO_BIN_EXE_fri-ctl"))
+        .arg("watch")
+        .arg("--socket")
+        .arg(&socket)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Commands start once `watch` says from which cycle on it misses nothing (its first line),
+    // as an operator would see it; before, the tare could be accepted before it subscribed.
+    let watch_stdout = watch.stdout.take().unwrap();
+    let (first_tx, first_rx) = std::sync::mpsc::channel();
+    let reader = std::thread::spawn(move || {
+        use std::io::BufRead;
+        let mut text = String::new();
+        for line in std::io::BufReader::new(watch_stdout).lines() {
+            let Ok(line) = line else { break };
+            if text.is_empty() {
+                let _ = first_tx.send(line.clone());
+            }
+            text.push_str(&line);
+            text.push('\n');
+        }
+        text
+    });
+    let first = tokio::task::spawn_blocking(move || first_rx.recv_timeout(Duration::from_secs(30)))
+        .await
+        .unwrap()
+        .expect("fri-ctl watch printed nothing");
+    assert!(first.starts_with("watching"), "{first}");
     let mut printed: Vec<(String, String)> = Vec::new();
     // fri-ctl tare: unloaded, stored.
     let tare = fri_ctl(&["tare"], &socket).await;
@@ -226,6 +258,19 @@ async fn the_readme_walkthrough_with_the_simulator() {
     printed.push(("fri-ctl resume".into(), resumed.clone()));
     let s = status(&socket).await;
     assert_eq!(s["stopped"], false, "{s:#}");
+    // What `watch` printed meanwhile (it runs until it is interrupted; every line is written
+    // as it happens, so nothing is lost when it is killed).
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    watch.kill().unwrap();
+    let watched = tokio::task::spawn_blocking(move || {
+        watch.wait().unwrap();
+        reader.join().unwrap()
+    })
+    .await
+    .unwrap();
+    assert!(watched.contains("collision"), "{watched}");
+    assert!(watched.contains("resume"), "{watched}");
+    printed.push(("fri-ctl watch".into(), watched));
     println!(
         "{}",
         printed

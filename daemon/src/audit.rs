@@ -157,6 +157,7 @@ fn weakens(change: &Change) -> bool {
         | Change::Resumed
         | Change::ReleasedByService { .. }
         | Change::MonitorRestarted { .. }
+        | Change::BrakingWatched { .. }
         | Change::PayloadDeclaredUnknown { .. } => true,
         Change::HeldByService { cause, .. } => matches!(cause, StopCause::ObserverFault { .. }),
         Change::TareStored { loaded, .. } => loaded.is_some(),

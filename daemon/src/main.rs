@@ -38,7 +38,7 @@ fn main() -> ExitCode {
         Ok(cli) => cli,
         Err(e) => return ExitCode::from(clap_exit(&e, EXIT_FAILED)),
     };
-    fri_service::init_logging("info");
+    fri_service::init_logging(fri_service::DEFAULT_LOG_FILTER);
     let mut stdout = Stdout::new();
     let result = match cli.command {
         Cmd::Run { config } => run(config),

@@ -1,8 +1,8 @@
 //! The shape the code must keep (issue 22): no import cycle between the files of a crate, and no
 //! file over 500 lines before its tests, in the daemon, the client, the protocol and the demo.
-//! A file's imports are its `crate::…`, `super::…` and `self::…` paths (outside its
-//! `#[cfg(test)]` part), resolved to the deepest module file they name; a file's own ancestors
-//! (`mod.rs` above it) do not count, their child modules being theirs.
+//! A file's imports are its `crate::…`, `super::…` and `self::…` paths and its `use child::…`
+//! (outside its `#[cfg(test)]` part), resolved to the deepest module file they name; a file's
+//! own ancestors (`mod.rs` above it) do not count, their child modules being theirs.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -68,6 +68,33 @@ fn paths(text: &str) -> Vec<Vec<String>> {
                     .map(str::to_owned)
                     .collect(),
             );
+        }
+    }
+    // `use child::…` (a path relative to the file's own module, as a `mod.rs` re-exports its
+    // children's items): read as `self::child::…`; an external crate's name resolves to no
+    // module of this crate and drops out.
+    for line in text.lines() {
+        let line = line.trim_start();
+        let line = ["pub(crate) ", "pub(super) ", "pub "]
+            .iter()
+            .find_map(|p| line.strip_prefix(p))
+            .unwrap_or(line);
+        let Some(rest) = line.strip_prefix("use ") else {
+            continue;
+        };
+        let end = rest
+            .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_' || c == ':'))
+            .unwrap_or(rest.len());
+        let segments: Vec<String> = rest[..end]
+            .split("::")
+            .filter(|s| !s.is_empty())
+            .map(str::to_owned)
+            .collect();
+        if segments
+            .first()
+            .is_some_and(|s| !["crate", "super", "self"].contains(&s.as_str()))
+        {
+            out.push(std::iter::once("self".to_owned()).chain(segments).collect());
         }
     }
     out

@@ -106,6 +106,34 @@ async fn every_change_names_its_origin_operator_or_ros2_participant() {
         status.payload_origin
     );
     assert!(status.ros2_unauthenticated_commands);
+    // A payload declared unknown over ROS 2: status names the participant who declared it.
+    let declared = c
+        .call_for(
+            Some(Ros2Caller {
+                participant: participant.into(),
+                authenticated: false,
+            }),
+            Command::ExpectPayload {
+                max_mass: None,
+                max_radius: None,
+                end: None,
+            },
+            |_, _| {},
+        )
+        .await
+        .unwrap();
+    assert!(declared.is_ok(), "{declared:?}");
+    let status: StatusResult =
+        serde_json::from_value(c.call(Command::Status, |_, _| {}).await.unwrap().unwrap()).unwrap();
+    let declared_by = status
+        .unknown_payload
+        .as_ref()
+        .and_then(|u| u.origin.as_ref());
+    assert!(
+        matches!(declared_by, Some(Origin::Ros2 { participant: p, authenticated: false, .. }) if p == participant),
+        "{:?}",
+        status.unknown_payload
+    );
     // Disarmed while the configuration arms: status says the monitor is weaker.
     assert!(
         status

@@ -6,6 +6,7 @@
 
 mod common;
 
+use common::collision_show as show;
 use common::*;
 use fri_api::cause::Cause;
 use fri_api::protocol::{CalibrationSource, CollisionAction, Command, ErrorCode, OperatorError};
@@ -24,16 +25,6 @@ fn calibrate(
         budget_per_hour,
         apply: Some(apply),
         allow_weaker: None,
-    }
-}
-
-fn show() -> Command {
-    Command::Collision {
-        action: CollisionAction::Show,
-        thresholds: None,
-        gains: None,
-        reaction: None,
-        pause_s: None,
     }
 }
 

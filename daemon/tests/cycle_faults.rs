@@ -26,12 +26,15 @@ fn command_mode_lost_mid_move_aborts_waits_for_rest_and_a_resent_move_reenters()
         ))
     ));
     assert_eq!(rig.aborts(), [AbortReason::CommandModeLost]);
-    assert_eq!(rig.resyncs(), [ResyncReason::CommandModeLost]);
+    // Nothing restarts the monitor: it watches the braking with an allowance.
+    assert!(rig.resyncs().is_empty(), "{:?}", rig.resyncs());
+    let allowance = braking_allowance(&rig).expect("a braking event");
+    assert!(allowance[1] > 1.0 && allowance.iter().all(|a| a.is_finite() && *a >= 0.0));
     assert!(!rig.has(flags::COMMAND_MODE) && !rig.moving());
     assert!(rig.speed() > 0.05, "the arm was still moving at the drop");
 
-    // The monitor waits for rest: while the arm brakes (well above the processor's rest speed
-    // of 0.02 rad/s), no residual is published.
+    // While the arm brakes (well above the processor's rest speed of 0.02 rad/s) the residual
+    // is published and the braking is no contact.
     let drop_cycle = rig.flags.len();
     let mut braking_cycles = 0;
     while rig.speed() > 0.03 {
@@ -40,14 +43,12 @@ fn command_mode_lost_mid_move_aborts_waits_for_rest_and_a_resent_move_reenters()
         assert!(braking_cycles < MAX_WAIT, "never at rest");
         let s = rig.state.unwrap();
         assert!(
-            s.flags & flags::RESIDUAL_INVALID != 0 && s.residual.iter().all(|r| r.is_nan()),
-            "residual published while the arm brakes ({} cycles after the drop)",
-            braking_cycles
+            s.flags & flags::RESIDUAL_INVALID == 0 && s.residual.iter().all(|r| r.is_finite()),
+            "no residual while the arm brakes ({braking_cycles} cycles after the drop)"
         );
     }
     assert!(braking_cycles > 5, "braking took {braking_cycles} cycles");
-    // Then it warms up again and publishes.
-    assert!(rig.run_until(MAX_WAIT, |r| !r.has(flags::RESIDUAL_INVALID)));
+    rig.run(100);
     assert!(
         rig.flags[drop_cycle..]
             .iter()
@@ -63,6 +64,57 @@ fn command_mode_lost_mid_move_aborts_waits_for_rest_and_a_resent_move_reenters()
     assert_eq!(rig.collisions(), 0, "braking is no contact: {:?}", rig.log);
     assert!(rig.stops().is_empty());
     assert_eq!(rig.clamped_steps(), 0);
+}
+
+/// The allowance of the processor's braking event, Nm.
+fn braking_allowance(rig: &Rig) -> Option<[f64; 7]> {
+    rig.log.iter().find_map(|e| match e {
+        CycleEvent::Braking { allowance_nm, .. } => Some(*allowance_nm),
+        _ => None,
+    })
+}
+
+/// A contact that begins and ends while the controller brakes after a loss of command mode is
+/// reported (the monitor used to restart until the arm rested, blind to it), and the arm is
+/// held; the same drop without the contact raises nothing (the test above).
+#[test]
+fn a_contact_while_the_controller_brakes_is_detected() {
+    for seed in [24, 25, 26] {
+        let mut sim = sim_config(seed);
+        sim.network.bursts = vec![LossBurst {
+            start_s: 1.2,
+            duration_s: 0.02,
+        }];
+        // 120 N for 15 ms on link 4, right after the drop (6 missed answers, ≈ 1.206 s).
+        sim.contacts = vec![ContactSpec {
+            link: 4,
+            point_m: [0.0, 0.0, 0.0],
+            onset_s: 1.209,
+            profile: ContactProfile::HalfSine {
+                peak_force_n: [0.0, 120.0, 0.0],
+                duration_s: 0.015,
+            },
+        }];
+        let mut rig = warm_rig(sim);
+        let target = rig.target(LONG_MOVE);
+        rig.start_move(target);
+        assert!(rig.run_until(MAX_WAIT, |r| !r.aborts().is_empty()));
+        assert_eq!(rig.aborts(), [AbortReason::CommandModeLost]);
+        let allowance = braking_allowance(&rig).expect("a braking event");
+        assert!(rig.sim.time_s() < 1.209, "the drop came after the contact");
+        rig.run(300);
+        assert_eq!(
+            rig.collisions(),
+            1,
+            "seed {seed}: allowance {allowance:?} {:?}",
+            rig.log
+        );
+        assert!(
+            matches!(rig.stops().as_slice(), [StopReason::Collision { .. }]),
+            "seed {seed}: {:?}",
+            rig.stops()
+        );
+    }
 }
 
 #[test]
@@ -164,4 +216,104 @@ fn a_controller_restart_mid_move_aborts_and_resynchronises_without_a_collision()
     rig.finish_move(target);
     assert_eq!(rig.aborts(), [AbortReason::ControllerRestarted]);
     assert_eq!(rig.collisions(), 0);
+}
+
+/// The service configured for the demo's fast tare moves (0.9 rad/s, 5 rad/s², 100 rad/s³,
+/// 1 mrad per cycle) and one 7° tare step on joints 2, 4 and 6 (rad).
+fn fast_tare_move() -> (Config, [f64; 7]) {
+    let mut config = service_config();
+    config.fri.max_joint_step = 1e-3;
+    config.motion.max_velocity = [0.9; 7];
+    config.motion.max_acceleration = [5.0; 7];
+    config.motion.max_jerk = [100.0; 7];
+    let step = 7.0f64.to_radians();
+    (config, [0.0, step, 0.0, -step, 0.0, step, 0.0])
+}
+
+/// The controller bridges answers that come late by extrapolating our last step, and its
+/// set-point rejoins ours afterwards with a change of speed: its joint controller answers with a
+/// torque step. During a fast move (the demo's 5 rad/s²) that step, unmatched by the velocity
+/// filter's lag, left up to 3× the clean move's residual (4.6 against 1.55 Nm); in real time, with
+/// a host pause on top, a 7 Nm "contact" on joint 2 (`realtime_faults.rs`). The processor filters
+/// the torque as the momentum for a while after the controller counted a missed answer.
+#[test]
+fn late_answers_during_a_fast_move_are_no_contact_and_leave_the_residual_of_a_clean_move() {
+    let (config, offset) = fast_tare_move();
+    // Replies 1.5 cycles late for `late` cycles, `after` cycles into the move (0: clean).
+    let run = |after: usize, late: usize| {
+        let mut rig = Rig::new(sim_config(21), &config);
+        rig.run(WARM_UP);
+        let target = rig.target(offset);
+        rig.start_move(target);
+        let misses_before = rig.sim.receive_counters().missed_cycles;
+        rig.run(after);
+        rig.client.reply_latency_s = 0.0015;
+        rig.run(late);
+        rig.client.reply_latency_s = 0.0;
+        rig.finish_move(target);
+        rig.run(200);
+        let missed = rig.sim.receive_counters().missed_cycles - misses_before;
+        (rig, missed)
+    };
+    let (clean, _) = run(0, 0);
+    assert_eq!(clean.collisions(), 0);
+    let clean_peak = clean.largest_residual;
+    for after in [60, 70, 80, 140, 280] {
+        for late in [3, 4] {
+            let (rig, missed) = run(after, late);
+            assert!(missed >= late as u64, "{missed} answers missed");
+            assert_eq!(
+                rig.sim.fri_state(),
+                FriState::Command,
+                "bridged, not dropped"
+            );
+            assert_eq!(
+                rig.collisions(),
+                0,
+                "after {after}, {late} late: {:?}",
+                rig.log
+            );
+            assert!(
+                rig.largest_residual <= 1.25 * clean_peak,
+                "after {after} cycles, {late} late answers: residual {:.2} Nm, clean move {clean_peak:.2} Nm",
+                rig.largest_residual
+            );
+        }
+    }
+}
+
+/// The controller leaves command mode (its 6th missed answer) while the service skips two
+/// measurements: its stop steps the torque somewhere inside the 3-cycle gap. Integrated across
+/// the gap, with the drive held from its end, the step became a 40 Nm residual on joint 2 and a
+/// "contact" (in real time, `realtime_faults.rs`); the monitor starts over instead.
+#[test]
+fn a_loss_of_command_mode_inside_a_bridged_gap_is_no_contact() {
+    let (config, offset) = fast_tare_move();
+    for after in [100, 150, 200] {
+        let mut rig = Rig::new(sim_config(21), &config);
+        rig.run(WARM_UP);
+        let target = rig.target(offset);
+        rig.start_move(target);
+        rig.run(after);
+        assert!(rig.speed() > 0.1, "at speed: {}", rig.speed());
+        // Four answers late (missed, bridged), then two measurements the service never sees.
+        rig.client.reply_latency_s = 0.0015;
+        rig.run(4);
+        rig.client.reply_latency_s = 0.0;
+        assert_eq!(rig.sim.fri_state(), FriState::Command);
+        for _ in 0..2 {
+            rig.sim.advance();
+        }
+        assert_eq!(rig.sim.fri_state(), FriState::Monitor, "dropped in the gap");
+        rig.run(1000);
+        assert_eq!(rig.aborts(), [AbortReason::CommandModeLost]);
+        assert_eq!(rig.collisions(), 0, "after {after}: {:?}", rig.log);
+        assert!(rig.stops().is_empty(), "{:?}", rig.stops());
+        assert!(
+            rig.resyncs()
+                .contains(&ResyncReason::StoppedInGap { cycles: 3 }),
+            "{:?}",
+            rig.resyncs()
+        );
+    }
 }

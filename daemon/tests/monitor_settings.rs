@@ -3,6 +3,9 @@
 //! payload and restored by the next start, a stored file that no longer fits stops the start.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
+mod common;
+
+use common::collision_show as show;
 use fri_api::cause::Cause;
 use fri_api::client::Client;
 use fri_api::protocol::{CollisionAction, Command, ErrorCode, OperatorError, ReactionMode};
@@ -22,16 +25,6 @@ fn configure(
         gains,
         reaction,
         pause_s,
-    }
-}
-
-fn show() -> Command {
-    Command::Collision {
-        action: CollisionAction::Show,
-        thresholds: None,
-        gains: None,
-        reaction: None,
-        pause_s: None,
     }
 }
 

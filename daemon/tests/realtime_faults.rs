@@ -12,10 +12,12 @@
 //! says so.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
+mod common;
+
 use std::net::{SocketAddr, UdpSocket};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command as Process};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::Duration;
 
 use fri_api::cause::Cause;
@@ -121,20 +123,6 @@ async fn wait_connected(c: &mut Client) {
         tokio::time::sleep(Duration::from_millis(10)).await;
     }
     panic!("the daemon never saw the controller");
-}
-
-/// Collects every event of a `watch` on its own connection.
-fn watch(mut c: Client) -> Arc<Mutex<Vec<(String, Value)>>> {
-    let events = Arc::new(Mutex::new(Vec::new()));
-    let sink = events.clone();
-    tokio::spawn(async move {
-        let _ = c
-            .call(Command::Watch { state_every: None }, |e, d| {
-                sink.lock().unwrap().push((e.to_owned(), d.clone()));
-            })
-            .await;
-    });
-    events
 }
 
 /// Per-cycle set-point steps and their changes (second differences) in command mode from a
@@ -245,7 +233,7 @@ async fn tare_attempt(
     .unwrap();
     let mut c = daemon.client().await;
     wait_connected(&mut c).await;
-    let events = watch(daemon.client().await);
+    let events = common::collect_watch(daemon.client().await, None).await;
     let injector = {
         let d = daemon.clone();
         std::thread::spawn(move || inject(&d))

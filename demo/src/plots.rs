@@ -2,8 +2,8 @@
 //! each written as SVG and, beside it, as PNG.
 //!
 //! Made for print: quantity symbols with units on the axes, thresholds as labelled dashed
-//! lines, contact onsets as labelled vertical markers, the legend in a strip right of the data
-//! (never over it), and the Okabe–Ito colour-blind-safe palette without its yellow (too light
+//! lines, contact onsets as labelled vertical markers, one legend for the figure in a strip
+//! right of the panels (never over the data), and the Okabe–Ito colour-blind-safe palette without its yellow (too light
 //! on white paper). Text in the PNG is rendered with the DejaVu Sans font shipped in
 //! `demo/assets` (plotters' `ab_glyph`), so the figures do not depend on the fonts installed.
 
@@ -43,7 +43,7 @@ const DOT: (f64, f64) = (2.0, 3.0);
 const WIDTH: u32 = 1000;
 /// Height of one panel in SVG pixels.
 const PANEL_HEIGHT: u32 = 300;
-/// Width of the legend strip right of the data, SVG pixels.
+/// Width of the figure's legend strip right of the panels, SVG pixels.
 const LEGEND_WIDTH: u32 = 190;
 /// Resolution factor of the PNG over the SVG (2000 px wide: about 200 dpi at 10 in).
 const PNG_SCALE: f64 = 2.0;
@@ -197,11 +197,55 @@ where
 {
     let s = Scale(scale);
     root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let areas = root.split_evenly((panels.len().max(1), 1));
+    let (width, _) = root.dim_in_pixel();
+    let (plots_area, legend_area) =
+        root.split_horizontally(width.saturating_sub(s.px(LEGEND_WIDTH as f64)));
+    let areas = plots_area.split_evenly((panels.len().max(1), 1));
     for (panel, area) in panels.iter().zip(areas.iter()) {
         draw_panel(area, panel, s).map_err(|e| anyhow::anyhow!("{e}"))?;
     }
-    Ok(())
+    draw_legend(&legend_area, &legend_of(panels), s).map_err(|e| anyhow::anyhow!("{e}"))
+}
+
+/// One legend for the whole figure: every distinct line, labelled threshold and marker of its
+/// panels, each once (the panels share their joints' colours).
+fn legend_of(panels: &[Panel]) -> Panel {
+    let mut legend = Panel {
+        title: String::new(),
+        y_label: String::new(),
+        series: Vec::new(),
+        thresholds: Vec::new(),
+        markers: Vec::new(),
+        marker_legend: None,
+        detections: Vec::new(),
+    };
+    for p in panels {
+        for series in &p.series {
+            if !legend
+                .series
+                .iter()
+                .any(|l| l.label == series.label && l.color == series.color)
+            {
+                legend.series.push(Series {
+                    points: Vec::new(),
+                    ..series.clone()
+                });
+            }
+        }
+        for t in p.thresholds.iter().filter(|t| !t.label.is_empty()) {
+            if !legend.thresholds.iter().any(|l| l.label == t.label) {
+                legend.thresholds.push(Threshold {
+                    curve: None,
+                    ..t.clone()
+                });
+            }
+        }
+        if legend.marker_legend.is_none() {
+            legend.marker_legend.clone_from(&p.marker_legend);
+        }
+        legend.detections.extend(p.detections.first());
+    }
+    legend
 }
 
 /// The data's x and y extent, thresholds included, y padded by 5 %.
@@ -241,11 +285,8 @@ fn draw_panel<DB: DrawingBackend>(
     panel: &Panel,
     s: Scale,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
-    let (width, _) = area.dim_in_pixel();
-    let (plot_area, legend_area) =
-        area.split_horizontally(width.saturating_sub(s.px(LEGEND_WIDTH as f64)));
     let ((x0, x1), (y0, y1)) = extent(panel);
-    let mut chart = ChartBuilder::on(&plot_area)
+    let mut chart = ChartBuilder::on(area)
         .caption(&panel.title, s.font(17.0))
         .margin(s.px(8.0))
         .margin_right(s.px(4.0))
@@ -354,10 +395,11 @@ fn draw_panel<DB: DrawingBackend>(
             .filter(|t| (x0..=x1).contains(*t))
             .map(|&t| TriangleMarker::new((t, y1), size, BLACK.filled())),
     )?;
-    draw_legend(&legend_area, panel, s)
+    Ok(())
 }
 
-/// The legend in its own strip: one entry per line, per threshold and for the markers.
+/// The legend in its own strip right of the panels: one entry per line, per threshold and for
+/// the markers.
 fn draw_legend<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     panel: &Panel,

@@ -61,6 +61,9 @@ fn file_for(model: &dynamics::Model<7>, delta_scale: f64) -> IdentifiedFile {
             heldout_rms: vec![0.25; 7],
             heldout_rms_joint_terms: vec![0.3; 7],
             heldout_rms_free: vec![f64::NAN; 7],
+            residual_peak_nominal: Vec::new(),
+            residual_peak: Vec::new(),
+            heldout_peak: Vec::new(),
         },
     }
 }

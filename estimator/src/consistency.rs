@@ -12,6 +12,27 @@ pub const SIGNIFICANCE: f64 = 2.0;
 /// monitor's `max_radius` of a plausible flange load).
 pub const DEFAULT_MAX_COM_DISTANCE_M: f64 = 0.3;
 
+/// Share of a principal moment's plausible range \[0, m·R²\] that the estimate's 2σ half-width
+/// may cover for the inertia to count as resolved: wider, and every plausible load's inertia
+/// lies inside the estimate's 2σ interval — the data do not tell them apart.
+pub const INERTIA_RESOLUTION: f64 = 0.5;
+
+/// The largest principal moment about its centre of mass a load of `mass_kg` whose every point
+/// lies within `reach_m` of the flange point can have, kg·m²: m·R² (the moment about an axis
+/// through the flange point is at most m·R², and the parallel axis through the centre of mass
+/// gives less).
+pub fn largest_plausible_moment(mass_kg: f64, reach_m: f64) -> f64 {
+    mass_kg.max(0.0) * reach_m * reach_m
+}
+
+/// Whether an estimate with principal moments of 1σ `moments_std` (kg·m²) resolves the inertia
+/// of a `mass_kg` load within `reach_m` of the flange: 2σ below [`INERTIA_RESOLUTION`] of
+/// [`largest_plausible_moment`]. An excitation made to identify the arm (or static poses) moves
+/// the payload too little to resolve it; its mass and centre of mass still stand.
+pub fn inertia_resolved(mass_kg: f64, moments_std: f64, reach_m: f64) -> bool {
+    SIGNIFICANCE * moments_std < INERTIA_RESOLUTION * largest_plausible_moment(mass_kg, reach_m)
+}
+
 /// Principal moments as text, kg·m² to 0.01 g·m² ("(0.00604, 0.01234, 0.02345)").
 fn moments_text(m: &[f64; 3]) -> String {
     format!("({:.5}, {:.5}, {:.5})", m[0], m[1], m[2])
@@ -86,7 +107,7 @@ pub struct Checked {
     /// Distance of the CoM from the flange point and its 1σ, m.
     pub com_distance: (f64, f64),
     /// Principal moments about the CoM (ascending), kg·m²; `None` for static (gravity-only)
-    /// estimates.
+    /// estimates and where the data do not resolve the inertia ([`inertia_resolved`]).
     pub moments: Option<[f64; 3]>,
     /// Scale of the moments' 1σ, kg·m².
     pub moments_std: f64,
@@ -192,5 +213,20 @@ mod tests {
             ..ok()
         };
         assert!(check(&c, 0.3).is_err());
+    }
+
+    #[test]
+    fn the_inertia_is_resolved_only_when_its_2_sigma_covers_less_than_half_the_plausible_range() {
+        // 3 kg within 0.3 m: moments in [0, 0.27] kg·m².
+        assert!((largest_plausible_moment(3.0, 0.3) - 0.27).abs() < 1e-12);
+        // The real run's σ of about 0.2 kg·m²: unresolved; the simulator's 1 g·m²: resolved.
+        assert!(!inertia_resolved(3.0, 0.2, 0.3));
+        assert!(inertia_resolved(3.0, 0.001, 0.3));
+        // The edge: 2σ = half of 0.27.
+        assert!(inertia_resolved(3.0, 0.0674, 0.3));
+        assert!(!inertia_resolved(3.0, 0.0676, 0.3));
+        // No mass, nothing to resolve; a NaN σ resolves nothing.
+        assert!(!inertia_resolved(-0.1, 0.0, 0.3));
+        assert!(!inertia_resolved(3.0, f64::NAN, 0.3));
     }
 }

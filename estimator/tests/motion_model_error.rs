@@ -110,6 +110,9 @@ fn learned(model: &Model<7>, rms: f64, tau: f64) -> IdentifiedModel<7> {
             heldout_rms: vec![rms; 7],
             heldout_rms_joint_terms: vec![f64::NAN; 7],
             heldout_rms_free: vec![f64::NAN; 7],
+            residual_peak_nominal: Vec::new(),
+            residual_peak: Vec::new(),
+            heldout_peak: Vec::new(),
         },
     };
     IdentifiedModel::new(model, file).unwrap()

@@ -7,6 +7,7 @@
 //! model without the payload, contacts). It can also play a recorded log as the controller
 //! ([`replay`], monitor mode only). See docs/mock-robot.md.
 
+pub mod arm_profile;
 pub mod config;
 pub mod contact;
 pub mod control;

@@ -172,6 +172,9 @@ pub struct EndpointClient<H> {
     pub responder: Responder<H>,
     /// Instant the simulation's time 0 maps to.
     pub start: Instant,
+    /// Latency of the replies, s (0: answered at once; beyond the controller's answer window
+    /// a reply is late, which the controller counts as a missed answer).
+    pub reply_latency_s: f64,
 }
 
 impl<H: CycleHook> EndpointClient<H> {
@@ -180,6 +183,7 @@ impl<H: CycleHook> EndpointClient<H> {
         Self {
             responder: Responder::new(config, hook),
             start: Instant::now(),
+            reply_latency_s: 0.0,
         }
     }
 
@@ -194,7 +198,7 @@ impl<H: CycleHook> EndpointClient<H> {
                 .cycle(&bytes, CONTROLLER, now, &mut out)
                 .is_ok()
             {
-                sim.submit_datagram(&out, 0.0);
+                sim.submit_datagram(&out, self.reply_latency_s);
             }
         }
         *sim.advance()

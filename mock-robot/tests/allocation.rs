@@ -9,8 +9,19 @@ use mock_robot::{Simulation, SimulationConfig};
 
 #[test]
 fn step_cycle_is_allocation_free_with_contacts_faults_and_motion() {
+    cycles_are_allocation_free("");
+}
+
+#[test]
+fn the_real_arm_profiles_cycle_is_allocation_free() {
+    cycles_are_allocation_free("[arm]\nprofile = \"real-lwr4\"\n");
+}
+
+/// The contacts scenario with network faults and `extra` scenario text: 200 cycles allocate
+/// nothing once past the first contact's onset.
+fn cycles_are_allocation_free(extra: &str) {
     let text = format!(
-        "{}\n{}",
+        "{}\n{}{extra}",
         include_str!("../scenarios/contacts.toml"),
         "[network]\nloss_percent = 5.0\nduplicate_percent = 5.0\ncorrupt_percent = 5.0\ndelay_jitter_ms = 0.5\n"
     );

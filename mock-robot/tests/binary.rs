@@ -171,6 +171,18 @@ fn a_replay_takes_no_scenario_and_writes_no_truth_log() {
     assert!(stderr.contains("cannot be used with"), "{stderr}");
 }
 
+#[test]
+fn an_unknown_arm_profile_is_refused_naming_the_choices() {
+    let out = Process::new(env!("CARGO_BIN_EXE_mock-robot"))
+        .args(["--arm", "real-lwr5", "--duration", "0.01"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("--arm"), "{stderr}");
+    assert!(stderr.contains("use nominal or real-lwr4"), "{stderr}");
+}
+
 /// Runs the binary in lockstep against a session client; `script(cycle, session, client_on)`
 /// may make requests or silence the client. Returns the binary's log (stderr).
 fn run_lockstep(

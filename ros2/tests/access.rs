@@ -87,7 +87,8 @@ async fn a_default_bridge_serves_no_command_to_a_rogue_participant() {
     let domain = 150;
     let bridge = common::Bridge::start(config, domain, 50);
     let d = domain.to_string();
-    // The attacks: stop, disarm, apply a wrong payload. No reader exists to match.
+    // The attacks: stop, disarm, a tare (it moves the arm), apply a wrong payload. No
+    // reader exists to match.
     let stop = common::JsonPeer::start(
         "rogue_peer.py",
         &args(&[
@@ -118,6 +119,20 @@ async fn a_default_bridge_serves_no_command_to_a_rogue_participant() {
             "3",
         ]),
     );
+    let tare = common::JsonPeer::start(
+        "rogue_peer.py",
+        &args(&[
+            "trigger",
+            "--service",
+            "tare",
+            "--domain",
+            &d,
+            "--wait-match",
+            "8",
+            "--quiet",
+            "3",
+        ]),
+    );
     let payload = common::JsonPeer::start(
         "rogue_peer.py",
         &args(&[
@@ -132,7 +147,8 @@ async fn a_default_bridge_serves_no_command_to_a_rogue_participant() {
             "8",
         ]),
     );
-    for peer in [&stop, &disarm, &payload] {
+    let q_before = common::status(&mut client).await.q.unwrap();
+    for peer in [&stop, &disarm, &tare, &payload] {
         assert_eq!(
             peer.next_with("matched", 60).await["matched"],
             0,
@@ -141,6 +157,7 @@ async fn a_default_bridge_serves_no_command_to_a_rogue_participant() {
     }
     assert_eq!(stop.next_with("replies", 60).await["replies"], 0);
     assert_eq!(disarm.next_with("replies", 60).await["replies"], 0);
+    assert_eq!(tare.next_with("replies", 60).await["replies"], 0);
     payload.next_with("written", 60).await;
     tokio::time::sleep(Duration::from_secs(2)).await;
     let s = common::status(&mut client).await;
@@ -148,6 +165,12 @@ async fn a_default_bridge_serves_no_command_to_a_rogue_participant() {
         !s.stopped && s.monitor.armed && s.payload.is_none(),
         "{s:?}"
     );
+    // The arm did not move (a tare's poses lie degrees apart; 0.01 rad is above the noise).
+    let q_after = s.q.unwrap();
+    let moved = (0..7)
+        .map(|j| (q_after[j] - q_before[j]).abs())
+        .fold(0.0, f64::max);
+    assert!(moved < 0.01, "the arm moved {moved} rad");
     // Nothing changed at anyone's request: the only records allowed are the loop's own
     // (a monitor restart after a gap the loaded test host causes).
     let records = audit.finish().await;

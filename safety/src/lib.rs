@@ -53,4 +53,4 @@ pub use payload_tolerance::{
     PinSource, PinSummary, PinnedLoad, ToleranceStatus, fit_hypothesis,
 };
 pub use reaction::{ReactionPolicy, ReactionRequest, ReactionState, ReactionSupervisor, StopCause};
-pub use velocity::{DEFAULT_VELOCITY_CUTOFF_HZ, VelocityEstimator, VelocityFilter};
+pub use velocity::{DEFAULT_VELOCITY_CUTOFF_HZ, MatchedLowPass, VelocityEstimator, VelocityFilter};

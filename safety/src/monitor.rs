@@ -228,6 +228,17 @@ impl<const N: usize> CollisionMonitor<N> {
         &self.observer
     }
 
+    /// Switches the observer's matched filtering on or off: see
+    /// [`MomentumObserver::set_matched_torque_filter`].
+    pub fn set_matched_torque_filter(&mut self, on: bool) {
+        self.observer.set_matched_torque_filter(on);
+    }
+
+    /// Per joint, Σ_k |M_jk(q)|·|q̇_k| \[N·m·s\]: see [`MomentumObserver::momentum_bound`].
+    pub fn momentum_bound(&mut self, q: &SVector<f64, N>, qd: &SVector<f64, N>) -> SVector<f64, N> {
+        self.observer.momentum_bound(q, qd)
+    }
+
     /// The detector.
     pub fn detector(&self) -> &CollisionDetector<N> {
         &self.detector

@@ -17,7 +17,7 @@ use crate::discretisation::ResidualIntegrator;
 use crate::error::ConfigError;
 use crate::fault::{Fault, FaultLog, Signal};
 use crate::payload::PayloadCompensation;
-use crate::velocity::VelocityEstimator;
+use crate::velocity::{MatchedLowPass, VelocityEstimator};
 
 /// One controller sample as the observer needs it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -118,6 +118,8 @@ pub struct MomentumObserver<const N: usize> {
     payload_shift: Option<SVector<f64, 4>>,
     integrator: ResidualIntegrator<N>,
     velocity: VelocityEstimator<N>,
+    /// The torque terms through the velocity filter's low-pass stages (`matched_torque_filter`).
+    drive_filter: MatchedLowPass<N>,
     faults: FaultLog,
     payload_fault: Option<Fault>,
     cycle: u64,
@@ -142,6 +144,7 @@ impl<const N: usize> MomentumObserver<N> {
                 config.sample_period_s,
             ),
             velocity: VelocityEstimator::new(config.velocity_filter),
+            drive_filter: MatchedLowPass::new(config.velocity_filter),
             config,
             loaded: model.clone(),
             unloaded: model,
@@ -171,6 +174,23 @@ impl<const N: usize> MomentumObserver<N> {
     /// The unloaded robot model.
     pub fn model(&self) -> &Model<N> {
         &self.unloaded
+    }
+
+    /// Switches matched filtering of the torque terms on or off from the next sample
+    /// (`ObserverConfig::matched_torque_filter`).
+    pub fn set_matched_torque_filter(&mut self, on: bool) {
+        self.config.matched_torque_filter = on;
+    }
+
+    /// Per joint, Σ_k |M_jk(q)|·|q̇_k| \[N·m·s\] on the model in use: a bound of the momentum a
+    /// stop from velocity `qd` \[rad/s\] at `q` \[rad\] removes (allocation-free).
+    pub fn momentum_bound(&mut self, q: &SVector<f64, N>, qd: &SVector<f64, N>) -> SVector<f64, N> {
+        let model = if self.inertia_loaded {
+            &self.loaded
+        } else {
+            &self.unloaded
+        };
+        crba(model, &mut self.data, q).abs() * qd.abs()
     }
 
     /// The payload compensation in use.
@@ -396,7 +416,24 @@ impl<const N: usize> MomentumObserver<N> {
             let shift =
                 payload_gravity_regressor(&self.unloaded, &mut self.data, &input.q) * change;
             self.integrator.shift(&shift);
+            // The torque terms step by −shift in this sample: the matched filter takes the
+            // step at once, as the residual does.
+            self.drive_filter.offset(&-shift);
         }
+        // Matched filtering: the torque terms lag as the velocity estimate in the momentum does,
+        // so a fast deceleration (the controller braking) leaves no residual of M·q̈·delay.
+        if !self.started || gap {
+            self.drive_filter.start_at(&terms.drive);
+        }
+        // The filter runs always, so that switching it on (`set_matched_torque_filter`) starts
+        // from its settled state; the residual, a first-order filter of its input, moves to
+        // the matched value within 1/K_I.
+        let filtered = self.drive_filter.update(&terms.drive, input.dt_s);
+        let drive = if self.config.matched_torque_filter {
+            filtered
+        } else {
+            terms.drive
+        };
         if !self.started {
             self.integrator.reset(&terms.momentum);
             self.started = true;
@@ -409,8 +446,7 @@ impl<const N: usize> MomentumObserver<N> {
             self.time_s += input.dt_s;
             return self.output(ObserverStatus::Resynchronised);
         }
-        self.integrator
-            .update(&terms.momentum, &terms.drive, input.dt_s);
+        self.integrator.update(&terms.momentum, &drive, input.dt_s);
         self.time_s += input.dt_s;
         if !self.integrator.residual().iter().all(|x| x.is_finite()) {
             // Cannot happen with finite inputs and a validated configuration; guard anyway so a

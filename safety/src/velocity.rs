@@ -163,6 +163,61 @@ impl<const N: usize> VelocityEstimator<N> {
     }
 }
 
+/// The velocity filter's low-pass stages alone, applied to another signal (the observer's torque
+/// terms) so that it lags exactly as the velocity estimate does (allocation-free).
+#[derive(Debug, Clone)]
+pub struct MatchedLowPass<const N: usize> {
+    filter: VelocityFilter,
+    stage1: SVector<f64, N>,
+    stage2: SVector<f64, N>,
+}
+
+impl<const N: usize> MatchedLowPass<N> {
+    /// The low-pass stages of `filter` (none for a backward difference), at rest on zero.
+    pub fn new(filter: VelocityFilter) -> Self {
+        Self {
+            filter,
+            stage1: SVector::zeros(),
+            stage2: SVector::zeros(),
+        }
+    }
+
+    /// Sets the state to the steady value `x` (same unit as the signal).
+    pub fn start_at(&mut self, x: &SVector<f64, N>) {
+        self.stage1 = *x;
+        self.stage2 = *x;
+    }
+
+    /// Moves the state by `delta` (a known step of the signal, applied at once instead of
+    /// through the filter).
+    pub fn offset(&mut self, delta: &SVector<f64, N>) {
+        self.stage1 += delta;
+        self.stage2 += delta;
+    }
+
+    /// Feeds `x` sampled `dt` \[s\] after the previous sample; returns the filtered value.
+    pub fn update(&mut self, x: &SVector<f64, N>, dt: f64) -> SVector<f64, N> {
+        match self.filter {
+            VelocityFilter::BackwardDifference => {
+                self.start_at(x);
+                *x
+            }
+            VelocityFilter::FirstOrder { cutoff_hz } => {
+                let a = VelocityFilter::alpha(cutoff_hz, dt);
+                self.stage1 = a * self.stage1 + (1.0 - a) * x;
+                self.stage2 = self.stage1;
+                self.stage1
+            }
+            VelocityFilter::SecondOrder { cutoff_hz } => {
+                let a = VelocityFilter::alpha(cutoff_hz, dt);
+                self.stage1 = a * self.stage1 + (1.0 - a) * x;
+                self.stage2 = a * self.stage2 + (1.0 - a) * self.stage1;
+                self.stage2
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -193,6 +248,32 @@ mod tests {
                 (implied_delay - documented).abs() < 1e-9,
                 "{filter:?}: implied {implied_delay} documented {documented}"
             );
+        }
+    }
+
+    /// The matched low-pass applied to the raw differences gives the velocity estimate itself:
+    /// the same stages, the same lag.
+    #[test]
+    fn matched_low_pass_lags_as_the_velocity_estimate() {
+        let t = 1e-3;
+        for filter in [
+            VelocityFilter::BackwardDifference,
+            VelocityFilter::FirstOrder { cutoff_hz: 50.0 },
+            VelocityFilter::SecondOrder { cutoff_hz: 150.0 },
+        ] {
+            let mut est = VelocityEstimator::<1>::new(filter);
+            let mut matched = MatchedLowPass::<1>::new(filter);
+            let q = |k: usize| {
+                let time = k as f64 * t;
+                Vector1::new((7.0 * time).sin() + if k > 40 { 0.3 * time } else { 0.0 })
+            };
+            est.start_at(&q(0), &Vector1::zeros());
+            matched.start_at(&Vector1::zeros());
+            for k in 1..200 {
+                let v = est.update(&q(k), t);
+                let m = matched.update(&((q(k) - q(k - 1)) / t), t);
+                assert!((v[0] - m[0]).abs() < 1e-12, "{filter:?} k={k}: {v} vs {m}");
+            }
         }
     }
 

@@ -8,6 +8,7 @@
 
 use serde::{Deserialize, Serialize};
 
+pub mod arguments;
 mod error;
 mod reply;
 mod request;
@@ -136,6 +137,10 @@ pub enum Command {
         #[serde(default)]
         allow_weaker: Option<bool>,
     },
+    /// Install thresholds calibrated offline (`fri-ctl offline calibrate-thresholds`), checked
+    /// against this service's cycle, identified arm and ceiling, and persisted as a
+    /// `collision-calibrate` with `apply` would (`docs/collision-detection.md` §7).
+    CollisionInstall(Box<InstallThresholds>),
     /// Stop: hold the current position and abort any running workflow.
     Stop,
     /// Resume after a stop or a collision reaction.
@@ -182,6 +187,7 @@ impl Command {
         "expect-payload",
         "collision",
         "collision-calibrate",
+        "collision-install",
         "stop",
         "resume",
         "record",
@@ -200,6 +206,7 @@ impl Command {
             Command::ExpectPayload { .. } => "expect-payload",
             Command::Collision { .. } => "collision",
             Command::CollisionCalibrate { .. } => "collision-calibrate",
+            Command::CollisionInstall(_) => "collision-install",
             Command::Stop => "stop",
             Command::Resume => "resume",
             Command::Record { .. } => "record",
@@ -227,6 +234,35 @@ impl Command {
                 }
         )
     }
+}
+
+/// The arguments of `collision-install`: a threshold schedule fitted offline and what it was
+/// fitted for.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InstallThresholds {
+    /// The calibrated schedule: θ0 per joint, Nm, and its motion coefficients.
+    pub schedule: crate::schedule::ThresholdSchedule,
+    /// What the schedule was fitted on (budget, length, covered speeds).
+    pub recording: crate::schedule::CalibrationInfo,
+    /// Median scheduled threshold per joint over that recording, Nm (with θ0, what the
+    /// ceiling `[observer] calibration_ceiling_nm` is checked against).
+    pub median_thresholds: [f64; 7],
+    /// Controller period the residual was computed at, s: must be this service's cycle.
+    pub period_s: f64,
+    /// Observer gains the residual was computed with, 1/s: installed with the thresholds,
+    /// which hold only for them.
+    pub gains: [f64; 7],
+    /// Per-joint torque offsets of the identified arm the observer ran on, Nm (`null`: the
+    /// nominal model): must be this service's `robot.calibration`.
+    #[serde(default)]
+    pub arm_offset: Option<[f64; 7]>,
+    /// Where the thresholds come from (the file's name, 1…255 characters), for `status` and
+    /// the audit trail.
+    pub source: String,
+    /// Install thresholds above the configured ceiling too (default false: refused).
+    #[serde(default)]
+    pub allow_weaker: Option<bool>,
 }
 
 /// Collision-monitor sub-command.

@@ -139,7 +139,7 @@ pub fn parse_request(line: &[u8]) -> Result<Request, (Option<RequestId>, Operato
     }
     let ros2 = take_ros2_caller(id, &mut map)?;
     // Ranges first: serde's messages name neither the field nor the allowed range.
-    crate::arguments::check(&cmd, &map).map_err(|e| (Some(id), e))?;
+    super::arguments::check(&cmd, &map).map_err(|e| (Some(id), e))?;
     let keys: Vec<String> = map.keys().cloned().collect();
     let command: Command = serde_json::from_value(Value::Object(map)).map_err(|e| {
         (

@@ -161,6 +161,14 @@ fn every_numeric_argument_out_of_range_is_rejected_naming_the_field_and_range() 
             r#""cmd":"watch","state_every":1e12"#,
             "state_every = 1e12 cycles is outside 1…100000 cycles",
         ),
+        (
+            r#""cmd":"collision-install","period_s":0"#,
+            "period_s = 0 s is outside",
+        ),
+        (
+            r#""cmd":"collision-install","arm_offset":[0,500,0,0,0,0,0]"#,
+            "arm_offset[1] = 500 Nm is outside",
+        ),
     ];
     for (args, expected) in cases {
         let line = format!("{{\"id\":7,{args}}}");
@@ -186,6 +194,16 @@ fn every_known_name_parses_with_minimal_arguments() {
         r#"{"id":1,"cmd":"expect-payload"}"#,
         r#"{"id":1,"cmd":"collision","action":"show"}"#,
         r#"{"id":1,"cmd":"collision-calibrate"}"#,
+        concat!(
+            r#"{"id":1,"cmd":"collision-install","schedule":{"thresholds":[1,1,1,1,1,1,1],"#,
+            r#""speed":[0,0,0,0,0,0,0],"velocity_noise":[0,0,0,0,0,0,0],"#,
+            r#""payload_dynamics":[0,0,0,0,0,0,0],"inertial":[0,0,0,0,0,0,0],"#,
+            r#""gravity":[0,0,0,0,0,0,0],"scale":[1,1,1,1,1,1,1]},"recording":"#,
+            r#"{"budget_per_hour":0.1,"duration_s":25,"blocks":24,"block_s":1,"#,
+            r#""max_speed":[0,0,0,0,0,0,0],"max_acceleration":[0,0,0,0,0,0,0]},"#,
+            r#""median_thresholds":[1,1,1,1,1,1,1],"period_s":0.001,"#,
+            r#""gains":[400,400,400,400,400,400,400],"source":"run1.json"}"#
+        ),
         r#"{"id":1,"cmd":"stop"}"#,
         r#"{"id":1,"cmd":"resume"}"#,
         r#"{"id":1,"cmd":"record","path":"x.csv","kind":"log","duration_s":1}"#,

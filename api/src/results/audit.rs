@@ -130,6 +130,13 @@ pub enum Change {
         /// Why.
         reason: ResyncReason,
     },
+    /// The controller left command mode during a move and brakes the arm: until the arm rests
+    /// (20 ms under 0.02 rad/s, at most 2 s) a contact is detected only when its residual
+    /// exceeds the threshold plus this allowance.
+    BrakingWatched {
+        /// Allowance per joint, Nm (joints 1..7): 20 1/s × Σ_k |M_jk(q)|·|q̇_k| at the loss.
+        allowance_nm: [f64; 7],
+    },
     /// Settings restored at start from the state directory.
     Restored {
         /// Which file (`monitor.json`, `payload.json`, …).
@@ -252,6 +259,11 @@ impl std::fmt::Display for Change {
                 f,
                 "collision monitor restarted ({}): blind until its warm-up ends",
                 reason.describe()
+            ),
+            Change::BrakingWatched { allowance_nm } => write!(
+                f,
+                "the controller brakes the arm after leaving command mode: until it rests, contacts are detected above the thresholds plus [Nm] {}",
+                values(allowance_nm, 2)
             ),
             Change::Restored {
                 file,

@@ -4,6 +4,7 @@ use serde::{Deserialize, Serialize};
 
 use super::payload::AppliedPayload;
 use crate::protocol::ReactionMode;
+pub use crate::schedule::{CalibrationInfo, ThresholdSchedule};
 
 /// Collision-monitor settings (in `status` under `monitor`, and the result of `collision`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -40,46 +41,6 @@ pub struct MonitorSettings {
     /// How the calibrated settings were obtained (absent: not calibrated).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub calibration: Option<CalibrationInfo>,
-}
-
-/// Thresholds scheduled by the motion (`docs/collision-detection.md` §2): on joint j,
-/// θ_j = min(thresholds_j + speed_j·|q̇_j| + velocity_noise_j·φ_noise,j plus
-/// payload_dynamics_j·|τ_L,j| + inertial_j·|(M q̈)_j| + gravity_j·|g_L,j(q)|, a quarter of the
-/// torque limit).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ThresholdSchedule {
-    /// θ0 at rest, Nm.
-    pub thresholds: [f64; 7],
-    /// Speed coefficients, Nm·s/rad.
-    pub speed: [f64; 7],
-    /// Velocity-noise coefficients, Nm per kg·m².
-    pub velocity_noise: [f64; 7],
-    /// Coefficients of the payload's unmodelled dynamics (1).
-    pub payload_dynamics: [f64; 7],
-    /// Coefficients of the arm's inertial torque (1).
-    pub inertial: [f64; 7],
-    /// Coefficients of the compensated gravity torque (1: the static model error's share).
-    pub gravity: [f64; 7],
-    /// Extreme-value scale per joint: threshold over the residual's envelope (weights the
-    /// contact fit).
-    pub scale: [f64; 7],
-}
-
-/// What a calibration was fitted on.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct CalibrationInfo {
-    /// Budget, false alarms per hour.
-    pub budget_per_hour: f64,
-    /// Recording length, s of robot time.
-    pub duration_s: f64,
-    /// Blocks of the extreme-value fit.
-    pub blocks: usize,
-    /// Block length, s.
-    pub block_s: f64,
-    /// Largest |q̇| per joint in the recording, rad/s: faster motions are extrapolated.
-    pub max_speed: [f64; 7],
-    /// Largest |q̈| per joint in the recording, rad/s².
-    pub max_acceleration: [f64; 7],
 }
 
 fn default_reaction() -> ReactionMode {

@@ -186,4 +186,8 @@ pub enum Correction {
     Tare,
     /// A stored model-error calibration.
     Calibration,
+    /// The identified arm (`[robot] calibration`): Δτ = τ_J − (g(q) + offsets) of the arm
+    /// identified from its own recordings, instead of the controller's gravity vector.
+    #[serde(rename = "identified-arm")]
+    IdentifiedArm,
 }

@@ -164,8 +164,12 @@ pub enum ResyncReason {
         /// Controller cycles since the previous accepted measurement.
         cycles: u32,
     },
-    /// The controller left command mode and braked the arm.
-    CommandModeLost,
+    /// The controller left command mode within a gap the observer would otherwise bridge: its
+    /// stop steps the torque somewhere inside the gap, which no integration across it can place.
+    StoppedInGap {
+        /// Controller cycles since the previous accepted measurement.
+        cycles: u32,
+    },
 }
 
 impl ResyncReason {
@@ -176,9 +180,9 @@ impl ResyncReason {
             ResyncReason::Gap { cycles } => {
                 format!("{cycles} controller cycles passed without a measurement")
             }
-            ResyncReason::CommandModeLost => {
-                "the controller left command mode and braked the arm".to_owned()
-            }
+            ResyncReason::StoppedInGap { cycles } => format!(
+                "the controller left command mode within {cycles} cycles without a measurement"
+            ),
         }
     }
 }

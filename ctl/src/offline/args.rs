@@ -271,6 +271,11 @@ pub struct MonitorArgs {
     /// Observer gains, 1/s: one value or 7 (default 400; a thresholds file brings its own).
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub gains: Option<Vec<f64>>,
+    /// Seconds dropped at each end of every log: a recording filtered without time shift
+    /// (zero phase, as the real recordings of `../shared/data/real-lwr4`) carries the filter's
+    /// transient there, which is no behaviour of the arm (0 to 10 s; default 0).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub edge_s: f64,
     /// Controller period the log is played at, s (the FRI cycle).
     #[arg(long, default_value_t = 0.001)]
     pub period_s: f64,
@@ -301,6 +306,11 @@ pub struct CalibrateThresholdsArgs {
     /// Observer gains, 1/s: one value or 7 (default 400).
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub gains: Option<Vec<f64>>,
+    /// Seconds dropped at each end of every log: a recording filtered without time shift
+    /// (zero phase, as the real recordings of `../shared/data/real-lwr4`) carries the filter's
+    /// transient there, which is no behaviour of the arm (0 to 10 s; default 0).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub edge_s: f64,
     /// Controller period the log is played at, s (the FRI cycle).
     #[arg(long, default_value_t = 0.001)]
     pub period_s: f64,

@@ -14,7 +14,7 @@ use serde_json::json;
 
 use super::args::CoefficientsArgs;
 use super::logs::{read_identified, read_recorded, read_trajectory};
-use super::motion_cmd::model_error;
+use super::motion_cmd::{inertia_unresolved, model_error};
 use super::robot::with_robot;
 
 fn route_n<const N: usize>(
@@ -83,12 +83,16 @@ fn route_n<const N: usize>(
         1e3 * e.com[2],
         1e3 * e.com_std[2]
     )?;
-    for (name, i) in ["Jxx", "Jxy", "Jxz", "Jyy", "Jyz", "Jzz"].iter().zip(4..10) {
-        writeln!(
-            out,
-            "  {name} {:+.5} ± {:.5} kg·m² (about the frame-{N} origin)",
-            e.parameters[i], s[i]
-        )?;
+    if e.inertia_resolved {
+        for (name, i) in ["Jxx", "Jxy", "Jxz", "Jyy", "Jyz", "Jzz"].iter().zip(4..10) {
+            writeln!(
+                out,
+                "  {name} {:+.5} ± {:.5} kg·m² (about the frame-{N} origin)",
+                e.parameters[i], s[i]
+            )?;
+        }
+    } else {
+        write!(out, "{}", inertia_unresolved(e))?;
     }
     write!(out, "{}", model_error(e))?;
     Ok(())

@@ -12,6 +12,7 @@ use serde_json::json;
 use super::args::IdentifyArgs;
 use super::logs::read_recorded;
 use super::robot::with_robot;
+use crate::service::format::count;
 
 fn row(label: &str, unit: &str, v: &[f64], digits: usize) -> String {
     let cells: Vec<String> = v.iter().map(|x| format!("{x:>8.digits$}")).collect();
@@ -24,14 +25,19 @@ fn report<const N: usize>(id: &Identification<N>, out_path: &str) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "Arm identified from {} log(s), written to {out_path}",
-        fit.logs.len()
+        "Arm identified from {}, written to {out_path}",
+        count(fit.logs.len(), "log")
     );
     let p = &id.preparation;
     let _ = writeln!(
         s,
-        "  {} samples over {:.1} s ({} piece(s) with the log's q̇, q̈; {} derived zero-phase; {} gap(s), {} rows left out)",
-        fit.samples, fit.duration_s, p.recorded, p.derived, p.gaps, p.dropped_rows
+        "  {} over {:.1} s ({} with the log's q̇, q̈; {} derived zero-phase; {}, {} left out)",
+        count(fit.samples, "sample"),
+        fit.duration_s,
+        count(p.recorded, "piece"),
+        p.derived,
+        count(p.gaps, "gap"),
+        count(p.dropped_rows, "row")
     );
     let _ = writeln!(
         s,
@@ -67,6 +73,21 @@ fn report<const N: usize>(id: &Identification<N>, out_path: &str) -> String {
         3,
     );
     s += &row("free fit (λ = 0), held out", "Nm", &fit.heldout_rms_free, 3);
+    let _ = writeln!(
+        s,
+        "  {:<28} {:<8}{}",
+        "residual peak |r|",
+        "",
+        header.join("")
+    );
+    s += &row(
+        "nominal model, in sample",
+        "Nm",
+        &fit.residual_peak_nominal,
+        3,
+    );
+    s += &row("identified, in sample", "Nm", &fit.residual_peak, 3);
+    s += &row("identified, held out", "Nm", &fit.heldout_peak, 3);
     let _ = writeln!(s, "  joint terms (± 1σ)");
     s += &row("offset", "Nm", &f.joint.offset, 3);
     s += &row("  ± 1σ", "Nm", &f.joint.offset_std, 3);

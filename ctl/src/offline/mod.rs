@@ -21,7 +21,7 @@ mod motion_cmd;
 mod report;
 pub(crate) mod robot;
 mod samples_file;
-mod thresholds;
+pub(crate) mod thresholds;
 mod thresholds_cmd;
 
 pub use args::{

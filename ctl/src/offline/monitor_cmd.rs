@@ -2,6 +2,7 @@
 //! ([`super::monitor_run`]): per joint the residual's RMS, p99 and peak, every threshold
 //! crossing, and the minimum detectable force per link.
 
+use crate::service::format::count;
 use std::fmt::Write as _;
 use std::io::Write;
 use std::path::PathBuf;
@@ -197,12 +198,12 @@ pub fn monitor(a: &MonitorArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         }
     };
     let model = arm_model(&nominal, arm.as_ref());
-    let logs = played(&a.log, &nominal, setup.period_s)?;
+    let logs = played(&a.log, &nominal, setup.period_s, a.edge_s)?;
     let at_rest = forces(&nominal, &setup.thresholds);
     let mut reports = Vec::new();
     let mut text = format!(
-        "Collision monitor (the service's observer and detector) over {} log(s); observer model: {}; thresholds: {source}; gains {:?} 1/s\n",
-        logs.len(),
+        "Collision monitor (the service's observer and detector) over {}; observer model: {}; thresholds: {source}; gains {:?} 1/s\n",
+        count(logs.len(), "log"),
         a.calibration
             .as_ref()
             .map_or("nominal (no identified arm)".to_owned(), |p| format!(
@@ -211,6 +212,12 @@ pub fn monitor(a: &MonitorArgs, out: &mut dyn Write) -> anyhow::Result<()> {
             )),
         setup.gains.as_slice()
     );
+    if a.edge_s > 0.0 {
+        text += &format!(
+            "  {} s dropped at each end of every log (--edge-s)\n",
+            a.edge_s
+        );
+    }
     for (name, pieces) in &logs {
         let mut m = build(&model, &setup)?;
         let r = run(&mut m, pieces, setup.period_s, None);

@@ -1,7 +1,7 @@
-//! The service's own collision monitor over a recorded log: `safety::CollisionMonitor` built as
-//! the service builds it (`fri_service::service::build_scheduled_monitor`: the configured gains,
-//! model gravity, the LWR's link surfaces, the calibrated schedule with the service's ceiling,
-//! the arm model's joint terms; fri-ctl does not link the daemon),
+//! The service's own collision monitor over a recorded log: `safety::CollisionMonitor` built by
+//! the function the service builds it with (`fri_api::monitor::build_monitor`: the configured
+//! gains, model gravity, the LWR's link surfaces, the calibrated schedule with the service's
+//! ceiling, the arm model's joint terms),
 //! fed at the FRI period with the log played by `estimator::replay` (positions by a natural
 //! cubic spline through the log's q, torques linear between its samples): the observer, its
 //! velocity filter, warm-up and every threshold are those of the 1 ms loop, which a 200 Hz
@@ -20,8 +20,8 @@ use fri_api::results::LinkForce;
 use nalgebra::SVector;
 use safety::calibration::{EnvelopeRecorder, minimum_detectable_force};
 use safety::{
-    CollisionMonitor, Detection, FeatureTracker, GravitySource, JointFriction, MonitorConfig,
-    MotionFeatures, ObserverInput, PayloadCompensation, ReactionPolicy,
+    CollisionMonitor, Detection, FeatureTracker, JointFriction, MotionFeatures, ObserverInput,
+    PayloadCompensation, ReactionPolicy,
 };
 
 use super::logs::{read_identified, read_recorded};
@@ -65,20 +65,57 @@ pub(crate) fn per_joint(
     Ok(out)
 }
 
-/// The logs played at the period, each with its name.
+/// Longest edge `--edge-s` drops at each end of a log, s.
+pub(crate) const EDGE_S: bounds::Range = bounds::Range::new(0.0, 10.0, "s");
+
+/// Time from the first played sample to the last, s (`None`: nothing was played).
+fn span_s(pieces: &[Vec<PlayedSample<7>>]) -> Option<f64> {
+    let first = pieces.first()?.first()?.t;
+    let last = pieces.last()?.last()?.t;
+    Some(last - first)
+}
+
+/// The pieces less `edge_s` at each end of the whole log (the pieces between its gaps are
+/// kept whole; a piece left empty is dropped).
+fn without_edges(pieces: Vec<Vec<PlayedSample<7>>>, edge_s: f64) -> Vec<Vec<PlayedSample<7>>> {
+    let (Some(first), Some(last)) = (
+        pieces.first().and_then(|p| p.first()).map(|s| s.t),
+        pieces.last().and_then(|p| p.last()).map(|s| s.t),
+    ) else {
+        return pieces;
+    };
+    let inside = |s: &PlayedSample<7>| s.t >= first + edge_s && s.t <= last - edge_s;
+    pieces
+        .into_iter()
+        .map(|piece| piece.into_iter().filter(inside).collect::<Vec<_>>())
+        .filter(|piece| !piece.is_empty())
+        .collect()
+}
+
+/// The logs played at the period, each with its name, less `edge_s` at each end of every log
+/// (a zero-phase filter's transient in a recording; the pieces between its gaps are kept whole).
 pub(crate) fn played(
     paths: &[PathBuf],
     model: &Model<7>,
     period_s: f64,
+    edge_s: f64,
 ) -> anyhow::Result<Vec<(String, Vec<Vec<PlayedSample<7>>>)>> {
+    EDGE_S.check("--edge-s", edge_s)?;
     paths
         .iter()
         .map(|p| {
             let log = read_recorded::<7>(p, model)?;
             let pieces =
                 play(&log, period_s).with_context(|| format!("playing {}", p.display()))?;
-            if pieces.is_empty() {
+            let Some(span_s) = span_s(&pieces) else {
                 bail!("{}: no piece long enough to play", p.display());
+            };
+            let pieces = without_edges(pieces, edge_s);
+            if pieces.is_empty() {
+                bail!(
+                    "{}: nothing is left to play after dropping --edge-s {edge_s} s at each end of its {span_s:.3} s",
+                    p.display()
+                );
             }
             Ok((p.display().to_string(), pieces))
         })
@@ -128,28 +165,16 @@ pub(crate) struct Setup {
     pub schedule: Option<fri_api::results::ThresholdSchedule>,
 }
 
-/// The monitor the service would run with `setup` on `arm` (see the module docs).
+/// The monitor the service would run with `setup` on `arm`: the service's own builder.
 pub(crate) fn build(arm: &ArmModel, setup: &Setup) -> anyhow::Result<CollisionMonitor<7>> {
-    let mut mc = MonitorConfig::<7>::new(setup.period_s, safety::DEFAULT_GAIN);
-    mc.observer.gains = setup.gains;
-    mc.observer.gravity_source = GravitySource::Model;
-    mc.observer.friction = arm.joint_terms;
-    mc.detector.thresholds_nm = setup.thresholds;
-    mc.link_surfaces = Some(safety::lwr4_link_surfaces());
-    if let Some(s) = &setup.schedule {
-        mc.detector.thresholds_nm = V7::from(s.thresholds);
-        mc.detector.velocity_coefficients = V7::from(s.speed);
-        mc.detector.schedule = safety::ThresholdSchedule {
-            velocity_noise: V7::from(s.velocity_noise),
-            payload_dynamics: V7::from(s.payload_dynamics),
-            inertial: V7::from(s.inertial),
-            gravity: V7::from(s.gravity),
-            ceiling_nm: V7::from_fn(|j, _| bounds::threshold(j).max),
-        };
-        mc.threshold_to_noise = V7::from(s.scale);
-    }
-    mc.reaction = ReactionPolicy::Stop;
-    CollisionMonitor::new(arm.model.clone(), mc)
+    let monitor_setup = fri_api::monitor::MonitorSetup {
+        period_s: setup.period_s,
+        gains: setup.gains.into(),
+        thresholds: setup.thresholds.into(),
+        schedule: setup.schedule.as_ref(),
+        reaction: ReactionPolicy::Stop,
+    };
+    fri_api::monitor::build_monitor(arm.model.clone(), arm.joint_terms, &monitor_setup)
         .map_err(|e| anyhow::anyhow!("collision monitor settings: {e}"))
 }
 

@@ -29,6 +29,13 @@ fn report(e: &InertialEstimate, last_frame: usize) -> String {
         1e3 * e.com[2],
         1e3 * e.com_std[2]
     );
+    if !e.inertia_resolved {
+        // Numbers that mean nothing are not shown as an estimate (they stay in --json).
+        out += &inertia_unresolved(e);
+        out += &fit_line(e);
+        out += &model_error(e);
+        return out;
+    }
     out += &format!("  inertia about the frame-{last_frame} origin [kg·m²] (± 1σ)\n");
     for (name, i) in ["Jxx", "Jxy", "Jxz", "Jyy", "Jyz", "Jzz"].iter().zip(4..10) {
         out += &format!("    {name} {:+.5} ± {:.5}\n", p[i], s[i]);
@@ -47,10 +54,7 @@ fn report(e: &InertialEstimate, last_frame: usize) -> String {
         "  principal moments about the CoM [kg·m²]  {:.5} {:.5} {:.5}\n",
         e.principal_moments[0], e.principal_moments[1], e.principal_moments[2]
     );
-    out += &format!(
-        "  fit  {} motion + {} static samples, {} equations, condition number {:.1} (unit-norm columns), residual σ {:.4} Nm\n",
-        e.motion_samples, e.static_samples, e.equations, e.condition_number, e.residual_std
-    );
+    out += &fit_line(e);
     match &e.physical_warning {
         None => {
             out += "  physically consistent (m > 0, inertia positive definite, triangle inequalities hold)\n"
@@ -59,6 +63,22 @@ fn report(e: &InertialEstimate, last_frame: usize) -> String {
     }
     out += &model_error(e);
     out
+}
+
+/// The report's lines for an estimate whose inertia the data do not resolve.
+pub(crate) fn inertia_unresolved(e: &InertialEstimate) -> String {
+    format!(
+        "  inertia  NOT RESOLVED by these data: only mass and CoM are estimated\n  note: {}\n",
+        e.physical_warning.as_deref().unwrap_or_default()
+    )
+}
+
+/// The report's line on the fit's size and conditioning.
+fn fit_line(e: &InertialEstimate) -> String {
+    format!(
+        "  fit  {} motion + {} static samples, {} equations, condition number {:.1} (unit-norm columns), residual σ {:.4} Nm\n",
+        e.motion_samples, e.static_samples, e.equations, e.condition_number, e.residual_std
+    )
 }
 
 /// The model-error term's lines of a report.

@@ -33,6 +33,10 @@ pub struct ThresholdsFile {
     /// The identified arm the observer used (path as given; `null`: the nominal model). The
     /// thresholds assume the same model in the service.
     pub calibration: Option<String>,
+    /// The identified arm's per-joint torque offsets, Nm (`null`: the nominal model): what
+    /// `collision configure --from` compares with the service's `robot.calibration`.
+    #[serde(default)]
+    pub arm_offset: Option<[f64; 7]>,
     /// The logs fitted.
     pub logs: Vec<String>,
     /// The schedule: θ0 per joint and its motion coefficients (as `collision calibrate`).
@@ -70,32 +74,21 @@ impl ThresholdsFile {
         }
         bounds::CYCLE_S.check("period_s", self.period_s)?;
         let gain = bounds::gain(self.period_s);
-        let s = &self.schedule;
         for j in 0..7 {
-            gain.check(&format!("gains[{}]", j + 1), self.gains[j])?;
-            bounds::threshold(j)
-                .check(&format!("schedule.thresholds[{}]", j + 1), s.thresholds[j])?;
-            for (name, v) in [
-                ("speed", s.speed[j]),
-                ("velocity_noise", s.velocity_noise[j]),
-                ("payload_dynamics", s.payload_dynamics[j]),
-                ("inertial", s.inertial[j]),
-                ("gravity", s.gravity[j]),
-            ] {
-                if !(v.is_finite() && v >= 0.0) {
-                    bail!(
-                        "schedule.{name}[{}] = {v} must be a finite number >= 0",
-                        j + 1
-                    );
-                }
-            }
-            if !(s.scale[j].is_finite() && s.scale[j] > 0.0) {
-                bail!(
-                    "schedule.scale[{}] = {} must be a positive number",
-                    j + 1,
-                    s.scale[j]
-                );
-            }
+            gain.check(&format!("gains[{j}]"), self.gains[j])?;
+        }
+        self.schedule.check()?;
+        self.recording.check()?;
+        if self.joints.len() != 7 {
+            bail!(
+                "`joints` has {} entries: one per joint, 7",
+                self.joints.len()
+            );
+        }
+        if self.calibration.is_some() != self.arm_offset.is_some() {
+            bail!(
+                "`calibration` and `arm_offset` go together (an identified arm has offsets, the nominal model none): write the file again with `offline calibrate-thresholds`"
+            );
         }
         Ok(())
     }

@@ -80,7 +80,7 @@ pub fn calibrate_thresholds(
         schedule: None,
     };
     let model = arm_model(&nominal, arm.as_ref());
-    let logs = played(&a.log, &nominal, a.period_s)?;
+    let logs = played(&a.log, &nominal, a.period_s, a.edge_s)?;
     let mut recorder = EnvelopeRecorder::<7>::new();
     for (name, pieces) in &logs {
         let mut m = build(&model, &setup)?;
@@ -107,6 +107,7 @@ pub fn calibrate_thresholds(
         period_s: a.period_s,
         gains: std::array::from_fn(|j| gains[j]),
         calibration: a.calibration.as_ref().map(|p| p.display().to_string()),
+        arm_offset: arm_offset(arm.as_ref())?,
         logs: logs.iter().map(|(n, _)| n.clone()).collect(),
         schedule: schedule_of(&fit),
         recording: CalibrationInfo {
@@ -116,6 +117,7 @@ pub fn calibrate_thresholds(
             block_s: fit.block_s,
             max_speed: std::array::from_fn(|j| fit.joints[j].max_speed),
             max_acceleration: std::array::from_fn(|j| fit.joints[j].max_acceleration),
+            installed_from: None,
         },
         joints: joint_fits(&fit),
         min_force_at_rest: forces(&nominal, &fit.thresholds_nm),
@@ -126,8 +128,27 @@ pub fn calibrate_thresholds(
         writeln!(out, "{}", serde_json::to_string_pretty(&file)?)?;
         return Ok(());
     }
-    write!(out, "{}", thresholds_report(&file, &a.out))?;
+    write!(out, "{}", thresholds_report(&file, &a.out, a.edge_s))?;
     Ok(())
+}
+
+/// The identified arm's per-joint offsets, Nm (`None`: the nominal model).
+fn arm_offset(arm: Option<&dynamics::IdentifiedModel<7>>) -> anyhow::Result<Option<[f64; 7]>> {
+    arm.map(|a| {
+        <[f64; 7]>::try_from(a.file().joint.offset.as_slice())
+            .map_err(|_| anyhow::anyhow!("the identified arm's offsets are not one per joint"))
+    })
+    .transpose()
+}
+
+/// Whether θ0 and the median stay under the default `[observer] calibration_ceiling_nm` (half
+/// the thresholds' range) on every joint: then a service with the default ceiling installs
+/// the file without `--allow-weak`.
+fn below_configured_ceiling(f: &ThresholdsFile) -> bool {
+    f.joints.iter().enumerate().all(|(j, x)| {
+        let ceiling = 0.5 * bounds::threshold(j).max;
+        x.threshold_at_rest <= ceiling && x.threshold_median <= ceiling
+    })
 }
 
 /// Joints ("J1"…) whose largest scheduled threshold over the recording is the service's
@@ -141,7 +162,7 @@ fn at_ceiling(f: &ThresholdsFile) -> Vec<String> {
         .collect()
 }
 
-fn thresholds_report(f: &ThresholdsFile, path: &Path) -> String {
+fn thresholds_report(f: &ThresholdsFile, path: &Path, edge_s: f64) -> String {
     let mut s = String::new();
     let r = &f.recording;
     let _ = writeln!(
@@ -223,16 +244,28 @@ fn thresholds_report(f: &ThresholdsFile, path: &Path) -> String {
     }
     let _ = writeln!(
         s,
-        "  written to {} (check them on another recording: fri-ctl offline monitor --log OTHER --thresholds {}{})",
+        "  written to {} (check them on another recording: fri-ctl offline monitor --log OTHER --thresholds {}{}{})",
         path.display(),
         path.display(),
         f.calibration
             .as_deref()
-            .map_or(String::new(), |c| format!(" --calibration {c}"))
+            .map_or(String::new(), |c| format!(" --calibration {c}")),
+        // fitted without the edges, they are checked without them
+        if edge_s > 0.0 {
+            format!(" --edge-s {edge_s}")
+        } else {
+            String::new()
+        }
     );
     let _ = writeln!(
         s,
-        "  the service installs a schedule from `collision calibrate --apply`; installing this file needs `collision configure --from` (not yet in the service)"
+        "  install it in a service on the same arm model and cycle: fri-ctl collision configure --from {}{}",
+        path.display(),
+        if at_ceiling(f).is_empty() && below_configured_ceiling(f) {
+            ""
+        } else {
+            " (with --allow-weak where it exceeds the service's [observer] calibration_ceiling_nm)"
+        }
     );
     s
 }

@@ -43,7 +43,13 @@ holds a contact-like level (naming the joint and the time). Thresholds (at rest 
 the recording) above the service's `[observer] calibration_ceiling_nm` (default an eighth of \
 the joint's torque limit: 22 Nm on joints 1–2, 12.5 on 3–5, 4.75 on 6–7) weaken detection: \
 `--apply` refuses them unless `--allow-weak` is given (the audit log then records them as \
-weaker).";
+weaker).
+
+`configure --from FILE` installs the thresholds file of `fri-ctl offline calibrate-thresholds` \
+(fitted on contact-free logs, e.g. a real arm's recordings): its schedule and the gains it was \
+fitted with, stored like `calibrate --apply`. The service refuses a file fitted at another \
+controller period or on another arm model (`--calibration` of the fit against its \
+`robot.calibration`), and thresholds above the ceiling unless `--allow-weak` is given.";
 
 /// Where the calibration's motion comes from, on the command line.
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -126,7 +132,12 @@ pub struct CollisionArgs {
     /// Install and store the calibrated thresholds (with `calibrate`; without: a preview).
     #[arg(long)]
     pub apply: bool,
-    /// With `calibrate --apply`: install thresholds above the service's
+    /// Install the thresholds file of `fri-ctl offline calibrate-thresholds` (with
+    /// `configure`: its schedule and gains, checked by the service against its cycle, arm model
+    /// and ceiling; stored).
+    #[arg(long, value_name = "FILE")]
+    pub from: Option<std::path::PathBuf>,
+    /// With `calibrate --apply` or `configure --from`: install thresholds above the service's
     /// `[observer] calibration_ceiling_nm` too (they weaken detection; logged as weaker).
     #[arg(long)]
     pub allow_weak: bool,
@@ -139,6 +150,9 @@ impl Operation for CollisionArgs {
     type Output = CollisionResult;
 
     fn request(&self) -> Result<Command, String> {
+        if let Some(path) = &self.from {
+            return self.install_request(path);
+        }
         let configure = matches!(self.action, CollisionArg::Configure);
         let given = self.thresholds.is_some()
             || self.gains.is_some()
@@ -210,8 +224,12 @@ pub(super) fn print_monitor(m: &MonitorSettings, out: &mut dyn Write) -> io::Res
             .map_or("without a payload".to_owned(), |p| {
                 format!("for a payload of {} kg", fixed(p.mass, 3))
             });
+        let by = c.installed_from.as_ref().map_or_else(
+            || "calibrated by `collision calibrate`".to_owned(),
+            |f| format!("calibrated offline, installed from {f}"),
+        );
         format!(
-            "calibrated by `collision calibrate` {payload}: budget {} false alarms/h, {} s recorded",
+            "{by} {payload}: budget {} false alarms/h, {} s recorded",
             c.budget_per_hour,
             fixed(c.duration_s, 0)
         )

@@ -134,6 +134,13 @@ fn cause_lines(cause: &Cause) -> Vec<String> {
                 )
             })
             .collect(),
+        Cause::ThresholdsForAnotherSetup {
+            field,
+            thresholds,
+            service,
+        } => vec![format!(
+            "cause: the thresholds were fitted with {field} = {thresholds}, this service runs with {service}: fit them again on logs of this setup (`fri-ctl offline calibrate-thresholds`)"
+        )],
         Cause::EstimateRejected {
             mass_kg,
             mass_std_kg,

@@ -107,6 +107,9 @@ pub(super) fn print(r: &EstimateResult, out: &mut dyn Write) -> io::Result<()> {
     let correction = match (r.tare_used, r.correction) {
         (true, _) | (_, Correction::Tare) => "stored tare subtracted",
         (false, Correction::Calibration) => "model-error calibration",
+        (false, Correction::IdentifiedArm) => {
+            "the identified arm's gravity and offsets (robot.calibration; no tare)"
+        }
         (false, Correction::None) => {
             "none (no matching tare: biased by the controller's model error)"
         }

@@ -9,7 +9,7 @@ use fri_api::protocol::Command;
 use fri_api::results::{DeclaredBy, ExpectPayloadResult, UnknownPayload};
 
 use super::JsonFlag;
-use super::format::{fixed, xyz_mm};
+use super::format::{count, fixed, xyz_mm};
 use super::runner::Operation;
 use fri_api::results::PinnedPayload;
 
@@ -116,7 +116,8 @@ pub(super) fn print_mode(u: &UnknownPayload, out: &mut dyn Write) -> io::Result<
         (_, 0) => writeln!(out, "                 no static sample yet"),
         (Some(m), n) => writeln!(
             out,
-            "                 fitted to {n} static sample(s): {} kg, centre of mass [mm] {} in frame 7{}",
+            "                 fitted to {}: {} kg, centre of mass [mm] {} in frame 7{}",
+            count(n, "static sample"),
             fixed(m, 4),
             u.com.map_or_else(|| "-".to_owned(), |c| xyz_mm(&c, 1)),
             if u.consistent {
@@ -125,7 +126,7 @@ pub(super) fn print_mode(u: &UnknownPayload, out: &mut dyn Write) -> io::Result<
                 "; NOT explained by one flange load across the poses (a contact): declare again or apply a payload"
             }
         ),
-        (None, n) => writeln!(out, "                 {n} static sample(s)"),
+        (None, n) => writeln!(out, "                 {}", count(n, "static sample")),
     }
 }
 
@@ -161,7 +162,7 @@ fn print_pin(u: &UnknownPayload, out: &mut dyn Write) -> io::Result<()> {
 
 fn print_pinned(p: &PinnedPayload, max_radius: f64, out: &mut dyn Write) -> io::Result<()> {
     let by = match p.samples {
-        Some(n) => format!("by the fit of {n} static sample(s)"),
+        Some(n) => format!("by the fit of {}", count(n as usize, "static sample")),
         None => format!("({})", p.by.name()),
     };
     writeln!(

@@ -61,6 +61,15 @@ pub(crate) fn fixed(v: f64, digits: usize) -> String {
     }
 }
 
+/// `n` and the noun, plural unless `n` is 1 (`count(2, "sample")` is `2 samples`).
+pub(crate) fn count(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
+}
+
 /// A flag as a word.
 pub(crate) fn yes_no(flag: bool) -> &'static str {
     if flag { "yes" } else { "no" }

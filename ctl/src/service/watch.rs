@@ -139,8 +139,10 @@ pub(super) fn print_event(event: &Event, out: &mut dyn Write) -> io::Result<()> 
         }
         Event::MonitorRestarted(m) => {
             let extra = match m.reason {
-                ResyncReason::Gap { cycles } => format!(" ({cycles} cycles)"),
-                ResyncReason::ControllerRestarted | ResyncReason::CommandModeLost => String::new(),
+                ResyncReason::Gap { cycles } | ResyncReason::StoppedInGap { cycles } => {
+                    format!(" ({cycles} cycles)")
+                }
+                ResyncReason::ControllerRestarted => String::new(),
             };
             writeln!(
                 out,

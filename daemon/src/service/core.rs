@@ -383,7 +383,7 @@ impl ServiceCore {
     }
 
     /// Leaves command mode (best effort).
-    pub(crate) async fn release(&self) {
+    pub(crate) fn release(&self) {
         let _ = self.send(CycleRequest::ReleaseCommandMode);
     }
 

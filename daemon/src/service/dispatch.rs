@@ -176,6 +176,7 @@ impl Handler for Dispatcher {
                 )
                 .await,
             ),
+            Command::CollisionInstall(request) => reply(s.collision_install(*request, &origin)),
             Command::Stop => {
                 let result = s.stop().await;
                 if result.is_ok() {

@@ -52,6 +52,7 @@ pub fn change_of(event: &CycleEvent) -> Option<Change> {
             by_service: None, ..
         } => None,
         CycleEvent::Resynchronised { reason, .. } => Some(Change::MonitorRestarted { reason }),
+        CycleEvent::Braking { allowance_nm, .. } => Some(Change::BrakingWatched { allowance_nm }),
         // Pins and expiries need the operator side's state: `follow_unknown_payload` records
         // them.
         CycleEvent::UnknownPayload { .. } => None,

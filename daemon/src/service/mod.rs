@@ -29,8 +29,7 @@ use std::time::Duration;
 use anyhow::Context as _;
 use dynamics::Model;
 use fri::endpoint::{Endpoint, EndpointConfig};
-use nalgebra::SVector;
-use safety::{CollisionMonitor, GravitySource, MonitorConfig, ReactionPolicy};
+use safety::{CollisionMonitor, ReactionPolicy};
 use tokio::sync::watch;
 
 use crate::config::{Config, ReactionMode};
@@ -71,31 +70,20 @@ pub fn build_scheduled_monitor(
     arm: &ArmModel,
     schedule: Option<&fri_api::results::ThresholdSchedule>,
 ) -> Result<CollisionMonitor<7>, safety::ConfigError> {
-    let mut mc = MonitorConfig::<7>::new(config.fri.cycle_s, safety::DEFAULT_GAIN);
-    mc.observer.gains = SVector::from(config.observer.gains);
-    mc.observer.gravity_source = GravitySource::Model;
-    mc.observer.friction = arm.joint_terms();
-    mc.detector.thresholds_nm = SVector::from(config.observer.thresholds);
-    mc.link_surfaces = Some(safety::lwr4_link_surfaces());
-    if let Some(s) = schedule {
-        mc.detector.thresholds_nm = SVector::from(s.thresholds);
-        mc.detector.velocity_coefficients = SVector::from(s.speed);
-        mc.detector.schedule = safety::ThresholdSchedule {
-            velocity_noise: SVector::from(s.velocity_noise),
-            payload_dynamics: SVector::from(s.payload_dynamics),
-            inertial: SVector::from(s.inertial),
-            gravity: SVector::from(s.gravity),
-            ceiling_nm: SVector::from_fn(|j, _| fri_api::bounds::threshold(j).max),
-        };
-        mc.threshold_to_noise = SVector::from(s.scale);
-    }
-    mc.reaction = match config.reaction.policy {
+    let reaction = match config.reaction.policy {
         ReactionMode::Pause => ReactionPolicy::PauseThenResume {
             pause_s: config.reaction.pause_s,
         },
         ReactionMode::Stop | ReactionMode::Report => ReactionPolicy::Stop,
     };
-    CollisionMonitor::new(arm.observer_model().clone(), mc)
+    let setup = fri_api::monitor::MonitorSetup {
+        period_s: config.fri.cycle_s,
+        gains: config.observer.gains,
+        thresholds: config.observer.thresholds,
+        schedule,
+        reaction,
+    };
+    fri_api::monitor::build_monitor(arm.observer_model().clone(), arm.joint_terms(), &setup)
 }
 
 /// `config` with the monitor settings a `collision configure` stored in place of its own
@@ -377,9 +365,19 @@ impl RunningService {
             }
         }
         if let Some(f) = self.stream.take() {
-            // Ends once the processor (on the endpoint thread) is gone.
+            // Ends once the processor (on the endpoint thread) is gone: joined when it does so
+            // within STREAM_JOIN_TIMEOUT, left to end on its own (logged) otherwise.
+            let deadline = std::time::Instant::now() + STREAM_JOIN_TIMEOUT;
+            while !f.is_finished() && std::time::Instant::now() < deadline {
+                std::thread::sleep(std::time::Duration::from_millis(5));
+            }
             if f.is_finished() {
                 let _ = f.join();
+            } else {
+                tracing::warn!(
+                    timeout_s = STREAM_JOIN_TIMEOUT.as_secs_f64(),
+                    "the stream thread did not end at shutdown; left to end on its own"
+                );
             }
         }
         if let Some(t) = self.ipc.take() {
@@ -390,6 +388,9 @@ impl RunningService {
         self.lock.take();
     }
 }
+
+/// Longest wait at shutdown for the stream thread to end after the endpoint stopped.
+const STREAM_JOIN_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(1);
 
 /// The endpoint's error, saying when another program holds the UDP port.
 fn endpoint_error(e: fri::endpoint::EndpointError, config: &Config) -> anyhow::Error {

@@ -133,6 +133,16 @@ pub enum CycleEvent {
         /// The mode after it.
         view: UnknownPayloadView,
     },
+    /// The controller left command mode during a move and brakes the arm: until the arm rests,
+    /// the detector sees the residual less `allowance_nm`.
+    Braking {
+        /// Cycle of the loss of command mode.
+        cycle: u64,
+        /// Allowance per joint, Nm (joints 1..7).
+        allowance_nm: [f64; 7],
+        /// The controller's view then.
+        fri: FriContext,
+    },
     /// The collision monitor started over; its residual is invalid until its warm-up ends.
     Resynchronised {
         /// Cycle of the restart.

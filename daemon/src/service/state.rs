@@ -111,7 +111,7 @@ pub struct Snapshot {
 }
 
 impl Snapshot {
-    /// Whether the collision monitor's residual is valid (not warming up or waiting for rest).
+    /// Whether the collision monitor's residual is valid (not warming up).
     pub fn residual_valid(&self) -> bool {
         self.robot.flags & flags::RESIDUAL_INVALID == 0
     }

@@ -43,13 +43,27 @@ pub struct Daemon {
 }
 
 impl Daemon {
-    /// Spawns the binary; `log` receives its stderr.
+    /// Spawns the binary with `RUST_LOG=info`; `log` receives its stderr.
     pub fn spawn(config_file: &Path, config: &Config, log: &Path) -> Self {
+        Self::spawn_logging(config_file, config, log, Some("info"))
+    }
+
+    /// Spawns the binary with `RUST_LOG` set to `filter` (`None`: unset, the service's default
+    /// filter); `log` receives its stderr.
+    pub fn spawn_logging(
+        config_file: &Path,
+        config: &Config,
+        log: &Path,
+        filter: Option<&str>,
+    ) -> Self {
         let err = std::fs::File::create(log).unwrap();
-        let child = Command::new(env!("CARGO_BIN_EXE_fri-service"))
-            .args(["run", "--config"])
-            .arg(config_file)
-            .env("RUST_LOG", "info")
+        let mut command = Command::new(env!("CARGO_BIN_EXE_fri-service"));
+        command.args(["run", "--config"]).arg(config_file);
+        match filter {
+            Some(f) => command.env("RUST_LOG", f),
+            None => command.env_remove("RUST_LOG"),
+        };
+        let child = command
             .stdin(Stdio::null())
             .stdout(Stdio::null())
             .stderr(Stdio::from(err))

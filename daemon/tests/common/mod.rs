@@ -125,6 +125,17 @@ pub fn push_on_link_4(onset_s: f64) -> mock_robot::contact::ContactSpec {
     }
 }
 
+/// `collision show`: the monitor's settings, nothing changed.
+pub fn collision_show() -> Command {
+    Command::Collision {
+        action: fri_api::protocol::CollisionAction::Show,
+        thresholds: None,
+        gains: None,
+        reaction: None,
+        pause_s: None,
+    }
+}
+
 pub fn lockstep() -> TimingMode {
     TimingMode::Lockstep {
         answer_timeout: Duration::from_millis(200),

@@ -1,6 +1,7 @@
 //! The rig of the collision-reaction and unknown-payload tests: the cycle processor cycle by
 //! cycle without sockets or sleeps, against a synthetic controller in command mode that follows
-//! every set-point exactly and measures τ_J = g(q) + g_payload(q) − τ_ext, so residual = τ_ext −
+//! every set-point exactly and measures τ_J = M(q)q̈ + C(q, q̇)q̇ + g(q) + g_payload(q) − τ_ext (the
+//! arm's own dynamics at the last step's velocity and acceleration), so residual = τ_ext −
 //! (payload error). The payload can be carried at once or attached over a ramp (a real grasp),
 //! forces act on any link (the flange included), and the service's refit of static samples is
 //! done as the service does it.
@@ -15,13 +16,12 @@
 pub use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 
 pub use dynamics::{
-    Data, Model, compute_generalized_gravity, payload_gravity_regressor, point_jacobian,
+    Data, Model, compute_generalized_gravity, payload_gravity_regressor, point_jacobian, rnea,
 };
 pub use fri::handshake::{HandshakeRequest, HandshakeStatus};
 pub use fri::session::{Arrival, Verdict};
 pub use fri::wire::{InterfaceState, Measurement, Quality};
 pub use fri_service::config::{Config, ReactionMode};
-pub use fri_service::motion::MotionLimits;
 pub use fri_service::service::build_monitor;
 pub use fri_service::service::cycle::{
     CycleEvent, CycleProcessor, CycleRequest, ProcessorSettings,
@@ -32,6 +32,7 @@ pub use safety::{
     FlangeLoadBounds, GraspTiming, LoadSample, PayloadCompensation, PayloadHypothesis,
     fit_hypothesis,
 };
+pub use trajectory::MotionLimits;
 
 pub type V7 = SVector<f64, 7>;
 
@@ -90,6 +91,8 @@ pub struct Rig {
     /// The controller dropped to monitor mode and brakes at this rate, rad/s².
     pub braking: Option<f64>,
     pub velocity: V7,
+    /// The velocity of the step before, rad/s (the acceleration the torques carry).
+    pub previous_velocity: V7,
 }
 
 impl Rig {
@@ -139,6 +142,7 @@ impl Rig {
             hypothesis: None,
             braking: None,
             velocity: V7::zeros(),
+            previous_velocity: V7::zeros(),
         }
     }
 
@@ -176,7 +180,15 @@ impl Rig {
     pub fn measurement(&mut self) -> Measurement {
         self.seq = self.seq.wrapping_add(1);
         let g = compute_generalized_gravity(&self.model, &mut self.data, &self.q);
-        let mut tau = g - self.contact_torque() + self.payload_torque();
+        let acceleration = (self.velocity - self.previous_velocity) / 0.001;
+        let arm = rnea(
+            &self.model,
+            &mut self.data,
+            &self.q,
+            &self.velocity,
+            &acceleration,
+        );
+        let mut tau = arm - self.contact_torque() + self.payload_torque();
         // Sensor noise of a few mNm: the observer rejects bit-identical (stale) samples.
         tau[0] += 1e-3 * f64::from(self.seq % 7);
         let mut m = Measurement::default();
@@ -217,6 +229,7 @@ impl Rig {
             HandshakeStatus::NOT_REPORTED,
             HandshakeRequest::NONE,
         );
+        self.previous_velocity = self.velocity;
         match (self.braking, desired.joint_position) {
             (Some(decel), _) => {
                 // The controller's own brake: constant deceleration to rest.

@@ -26,7 +26,7 @@ pub(super) async fn calibrate_thresholds(
         "      calibrating the collision thresholds on the task (a contact-free run of the free motion) ...",
     );
     let before = current_cycle(client).await?;
-    let mut task = free_motion(opts.seed.wrapping_add(1));
+    let mut task = free_motion(opts.seed.wrapping_add(1), opts.arm);
     task.contacts.clear();
     // The service counts recorded samples only: the feature filters' settling (0.1 s) at the
     // start and after each gap the monitor cannot bridge (a host that stalls the real-time

@@ -61,7 +61,7 @@ pub(super) async fn tare_and_estimate(
         "[1/4] tare: 10 poses (centred pattern, ±7°), no payload ...",
     );
     let driver = mock_robot::spawn_new(
-        sim(opts.seed, false),
+        sim(opts.seed, opts.arm, false),
         ServerConfig::loopback(fri, opts.pacing),
     )?;
     wait_fresh_state(client, None, 50).await?;

@@ -101,9 +101,9 @@ pub(super) fn evaluate(
         say(
             opts,
             format!(
-                "      {name:38} detections {}, {} false alarm(s), free-motion peak {:.1} Nm",
+                "      {name:38} detections {}, {}, free-motion peak {:.1} Nm",
                 fmt_times(&d.detected),
-                d.false_alarms,
+                super::fmt_false_alarms(d.false_alarms),
                 d.free_motion_peak_nm
             ),
         );

@@ -194,11 +194,7 @@ pub(super) fn plot_fig6(
                 .collect();
             Threshold {
                 value: points.last().map_or(0.0, |p| p.1),
-                label: if j == 0 {
-                    "θⱼ(t), max per 20 ms".to_owned()
-                } else {
-                    String::new()
-                },
+                label: format!("θ{}(t)", subscript(j + 1)),
                 color: Some(j),
                 curve: Some(points),
             }
@@ -238,7 +234,7 @@ pub(super) fn plot_fig6(
             Panel {
                 thresholds: scheduled_lines,
                 ..panel(
-                    "(c) Residual, estimated payload compensated (eq. 48 and its inertia); calibrated θⱼ(t), 1 false alarm/10 h",
+                    "(c) Compensated residual (eq. 48); θⱼ(t) for 1 false alarm/10 h (max per 20 ms)",
                     "r [Nm]",
                     compensated,
                     onsets_of.compensated,

@@ -58,7 +58,7 @@ pub(super) async fn run(
     let (before_cycle, before_time) = service_clock(client).await?;
     let t0 = before_time + cycle_s;
     let driver = mock_robot::spawn_new(
-        free_motion(opts.seed),
+        free_motion(opts.seed, opts.arm),
         ServerConfig::loopback(fri, opts.pacing),
     )?;
     wait_fresh_state(client, Some(before_cycle), 0).await?;

@@ -66,6 +66,8 @@ pub struct DemoOptions {
     pub out_dir: PathBuf,
     /// Seed of the simulated robot (noise, model error).
     pub seed: u64,
+    /// The simulated arm: the shared nominal model or the real LWR 4+'s profile.
+    pub arm: mock_robot::config::ArmProfile,
     /// Real time (the demo) or lockstep (tests).
     pub pacing: TimingMode,
     /// Print progress lines.
@@ -241,6 +243,15 @@ async fn phases(
         robot_time_s: cycles as f64 * cycle_s,
         wall_time_s: simulated,
     })
+}
+
+/// A count of false alarms as text: "1 false alarm", "0 false alarms".
+pub fn fmt_false_alarms(n: usize) -> String {
+    if n == 1 {
+        "1 false alarm".to_owned()
+    } else {
+        format!("{n} false alarms")
+    }
 }
 
 /// Detection times as text: "at 1.019, 8.015 s", or "none".

@@ -5,18 +5,20 @@ use std::path::Path;
 
 use fri_service::config::{Config, ReactionMode};
 use mock_robot::SimulationConfig;
+use mock_robot::config::ArmProfile;
 use mock_robot::contact::{ContactProfile, ContactSpec};
 use mock_robot::motion::MotionSegment;
 
 use super::{CONTACTS_S, FREE_MOTION_S, PAYLOAD_COM, PAYLOAD_MASS, THRESHOLD_NM};
 
-/// The simulated arm with seed `seed`, the paper's payload attached or not.
-pub(super) fn sim(seed: u64, payload: bool) -> SimulationConfig {
+/// The simulated arm `arm` with seed `seed`, the paper's payload attached or not.
+pub(super) fn sim(seed: u64, arm: ArmProfile, payload: bool) -> SimulationConfig {
     let mut c = SimulationConfig {
         name: "demo".into(),
         seed,
         ..SimulationConfig::default()
     };
+    c.arm.profile = arm;
     c.payload.mass_kg = PAYLOAD_MASS;
     c.payload.com_m = PAYLOAD_COM;
     c.payload.attached_at_start = payload;
@@ -25,8 +27,8 @@ pub(super) fn sim(seed: u64, payload: bool) -> SimulationConfig {
 
 /// The free-motion segment: five point-to-point moves and the way back to the start, contacts
 /// on links 4, 6 and 7 at [`CONTACTS_S`], payload attached.
-pub(super) fn free_motion(seed: u64) -> SimulationConfig {
-    let mut c = sim(seed, true);
+pub(super) fn free_motion(seed: u64, arm: ArmProfile) -> SimulationConfig {
+    let mut c = sim(seed, arm, true);
     let p0 = mock_robot::config::DEFAULT_INITIAL_Q_DEG;
     let ptp = |q: [f64; 7], d: f64| MotionSegment::Ptp {
         q_deg: q,

@@ -103,6 +103,16 @@ pub struct FitSummary {
     pub heldout_rms_joint_terms: Vec<f64>,
     /// Held-out residual RMS of the unregularised fit (λ = 0), Nm per joint.
     pub heldout_rms_free: Vec<f64>,
+    /// Largest |residual| of the nominal model on the data, Nm per joint (empty in files
+    /// written before it was reported).
+    #[serde(default)]
+    pub residual_peak_nominal: Vec<f64>,
+    /// Largest |residual| of the identified model on the data (in sample), Nm per joint.
+    #[serde(default)]
+    pub residual_peak: Vec<f64>,
+    /// Largest held-out |residual| of the identified model (cross-validation), Nm per joint.
+    #[serde(default)]
+    pub heldout_peak: Vec<f64>,
 }
 
 /// Largest v0 of the Coulomb sign accepted, rad/s.
@@ -261,6 +271,22 @@ impl IdentifiedFile {
                 return Err(invalid(
                     name,
                     format!("{} values, the model needs {joints}", v.len()),
+                ));
+            }
+            for x in v {
+                summary(name, *x)?;
+            }
+        }
+        // the peaks: absent from older files, else one per joint
+        for (name, v) in [
+            ("fit.residual_peak_nominal", &f.residual_peak_nominal),
+            ("fit.residual_peak", &f.residual_peak),
+            ("fit.heldout_peak", &f.heldout_peak),
+        ] {
+            if !v.is_empty() && v.len() != joints {
+                return Err(invalid(
+                    name,
+                    format!("{} values, the model needs {joints} (or none)", v.len()),
                 ));
             }
             for x in v {

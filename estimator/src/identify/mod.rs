@@ -299,6 +299,9 @@ pub fn identify<const N: usize>(
     let mut times = Vec::with_capacity(total);
     let mut starts = Vec::new();
     let mut heldout: Vec<Vec<f64>> = vec![Vec::with_capacity(total); N];
+    // largest |residual| per joint: the nominal model's (y itself) and the identified one's
+    let mut peak_nominal = vec![0.0_f64; N];
+    let mut peak = vec![0.0_f64; N];
     let mut last_piece = usize::MAX;
     for_each_row(model, &columns, v0, &pieces, |s, i, t, j, a, y| {
         if j == 0 {
@@ -311,7 +314,14 @@ pub fn identify<const N: usize>(
         let xf = &fold_fits[fold_of(s)];
         let fit: f64 = a.iter().zip(xf.iter()).map(|(u, v)| u * v).sum();
         heldout[j].push(y - fit);
+        let fit_all: f64 = a.iter().zip(x.iter()).map(|(u, v)| u * v).sum();
+        peak_nominal[j] = peak_nominal[j].max(y.abs());
+        peak[j] = peak[j].max((y - fit_all).abs());
     });
+    let heldout_peak: Vec<f64> = heldout
+        .iter()
+        .map(|r| r.iter().fold(0.0_f64, |m, v| m.max(v.abs())))
+        .collect();
     let rms = |r: &[f64]| (r.iter().map(|v| v * v).sum::<f64>() / r.len().max(1) as f64).sqrt();
     let heldout_rms: Vec<f64> = heldout.iter().map(|r| rms(r)).collect();
     let taus: Vec<f64> = heldout
@@ -390,6 +400,9 @@ pub fn identify<const N: usize>(
             heldout_rms,
             heldout_rms_joint_terms: rms_at(None),
             heldout_rms_free: rms_at(Some(0.0)),
+            residual_peak_nominal: peak_nominal,
+            residual_peak: peak,
+            heldout_peak,
         },
     };
     let model = IdentifiedModel::new(model, file)?;

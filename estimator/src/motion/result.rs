@@ -33,8 +33,12 @@ pub struct InertialEstimate {
     pub inertia_com_std: [f64; 6],
     /// Principal moments about the CoM, ascending, kg·m².
     pub principal_moments: [f64; 3],
+    /// Whether the data resolve the inertia ([`consistency::inertia_resolved`]); when not, the
+    /// inertia fields are the fit's numbers, not an estimate: only mass and CoM stand.
+    pub inertia_resolved: bool,
     /// `None` when physically consistent; otherwise the inconsistency within the uncertainty
-    /// (a significant one is an error, `EstimatorError::NonPhysical`).
+    /// (a significant one is an error, `EstimatorError::NonPhysical`), or why the inertia is
+    /// not resolved.
     pub physical_warning: Option<String>,
     /// Condition number of the stacked regressor with columns scaled to unit norm.
     pub condition_number: f64,
@@ -136,6 +140,20 @@ pub(crate) fn build(
         .iter()
         .map(|&i| inertia_com_std[i])
         .fold(0.0, f64::max);
+    let resolved = consistency::inertia_resolved(mass, moments_std, max_com_distance_m);
+    let physical_warning = if resolved {
+        body.check_physical().err().map(|e| {
+            format!("not physically consistent ({e}), but within the estimate's uncertainty")
+        })
+    } else {
+        Some(format!(
+            "inertia not resolved: the principal moments' 1σ is {moments_std:.5} kg·m², against \
+             the 0–{:.5} kg·m² a {mass:.3} kg load within {max_com_distance_m:.3} m of the \
+             flange can have; the mass and centre of mass stand, the inertia is no estimate \
+             (rotate the payload more: faster or longer wrist sweeps, more orientations)",
+            consistency::largest_plausible_moment(mass, max_com_distance_m)
+        ))
+    };
     let m3 = |m: &Matrix3<f64>| [0, 1, 2].map(|r| [0, 1, 2].map(|c| m[(r, c)]));
     let parameters_std: [f64; 10] = sd(cov);
     let estimate = InertialEstimate {
@@ -150,9 +168,8 @@ pub(crate) fn build(
         inertia_com: m3(&icom),
         inertia_com_std,
         principal_moments: moments,
-        physical_warning: body.check_physical().err().map(|e| {
-            format!("not physically consistent ({e}), but within the estimate's uncertainty")
-        }),
+        inertia_resolved: resolved,
+        physical_warning,
         condition_number: fit.condition_number,
         equations: fit.equations,
         motion_samples: counts.motion_samples,
@@ -173,7 +190,7 @@ pub(crate) fn build(
     let checked = Checked {
         mass: (mass, parameters_std[0]),
         com_distance: (distance, distance_std),
-        moments: Some(moments),
+        moments: resolved.then_some(moments),
         moments_std,
     };
     match consistency::check(&checked, max_com_distance_m) {

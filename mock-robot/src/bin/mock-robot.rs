@@ -16,6 +16,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
+use mock_robot::config::ArmProfile;
 use mock_robot::replay::{Derivatives, Replay};
 use mock_robot::server::{self, DEFAULT_LOCKSTEP_TIMEOUT, RunSummary, ServerConfig, TimingMode};
 use mock_robot::{Controller, Simulation, SimulationConfig};
@@ -54,6 +55,11 @@ struct Args {
     /// White noise σ of the joint torque sensors, Nm.
     #[arg(long)]
     torque_noise: Option<f64>,
+    /// The arm: `nominal` (the shared model) or `real-lwr4` (the real LWR 4+ of the shared
+    /// recordings: its identified dynamics, offsets, friction and unexplained torque);
+    /// overrides the scenario's `[arm] profile`.
+    #[arg(long, value_name = "PROFILE")]
+    arm: Option<ArmProfile>,
     /// Master random seed.
     #[arg(long)]
     seed: Option<u64>,
@@ -153,6 +159,9 @@ fn build_config(args: &Args) -> Result<SimulationConfig> {
     }
     if let Some(s) = args.seed {
         config.seed = s;
+    }
+    if let Some(a) = args.arm {
+        config.arm.profile = a;
     }
     if let Some(d) = args.duration {
         config.duration_s = Some(d);

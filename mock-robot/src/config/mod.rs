@@ -16,6 +16,7 @@ pub use payload::{
 };
 pub use physics::{DEFAULT_TORQUE_QUANTUM_NM, FrictionSpec, ModelErrorSpec, SensorSpec};
 
+pub use crate::arm_profile::{ArmProfile, ArmSpec};
 use crate::contact::ContactSpec;
 use crate::error::{SimError, ensure};
 use crate::faults::NetworkFaultSpec;
@@ -41,6 +42,8 @@ pub struct SimulationConfig {
     /// Scenario length, s; `None` runs until the motion script ends plus 1 s, or forever when
     /// there is no motion script.
     pub duration_s: Option<f64>,
+    /// The arm the simulator is (`[arm] profile = "nominal"` or `"real-lwr4"`).
+    pub arm: ArmSpec,
     /// Initial joint angles, deg; the arm starts at rest there.
     pub initial_q_deg: [f64; JOINTS],
     /// Joint angles given in rad (from the command line); overrides `initial_q_deg` when set.
@@ -77,6 +80,7 @@ impl Default for SimulationConfig {
             cycle_ms: 1,
             physics_rate_hz: 5000.0,
             duration_s: None,
+            arm: ArmSpec::default(),
             initial_q_deg: DEFAULT_INITIAL_Q_DEG,
             initial_q_rad: None,
             payload: PayloadSpec::default(),

@@ -285,6 +285,11 @@ impl RecordedLog {
         Ok(self)
     }
 
+    /// The rows' stamps as recorded, s.
+    pub fn stamps(&self) -> &[f64] {
+        &self.t
+    }
+
     /// Rows held.
     pub fn rows(&self) -> usize {
         self.t.len()

@@ -67,10 +67,13 @@ pub(crate) struct Arm {
 }
 
 impl Arm {
-    /// The arm of `config` at rest at `q` (rad), holding gravity; the payload is checked to be
-    /// physical.
-    pub(crate) fn new(config: &SimulationConfig, q: JointVector) -> Result<Self, SimError> {
-        let bare = dynamics::lwr4();
+    /// The arm of `config` with the rigid-body model `bare`, at rest at `q` (rad), holding
+    /// gravity; the payload is checked to be physical.
+    pub(crate) fn new(
+        config: &SimulationConfig,
+        bare: Model<7>,
+        q: JointVector,
+    ) -> Result<Self, SimError> {
         let payload = payload_parameters(&config.payload);
         payload
             .check_physical()

@@ -24,6 +24,7 @@ mod truth;
 use dynamics::{Data, Model};
 use fri::wire::{CMD_LEN, Command, ControlStrategy, InterfaceState, KrlData, Measurement};
 
+use crate::arm_profile::{RealArm, SensedArmTerms};
 use crate::config::{PayloadAction, SimulationConfig};
 use crate::controller::{Controller, ControllerEvent, EventKind, EventQueue};
 use crate::error::SimError;
@@ -53,6 +54,7 @@ use timeline::{Scheduled, Timeline};
 const SEED_SENSORS: u64 = 0x5E45_0001;
 const SEED_MODEL: u64 = 0x40DE_0002;
 const SEED_FAULTS: u64 = 0xFA17_0003;
+const SEED_ARM: u64 = 0xA4E1_0004;
 
 /// The simulated controller and arm.
 #[derive(Debug, Clone)]
@@ -67,6 +69,8 @@ pub struct Simulation {
     data_ctrl: Data<7>,
     // Controller side.
     sensors: TorqueSensors,
+    /// A real arm's sensed terms (offsets, friction, unexplained torque); `None` for nominal.
+    sensed: Option<Box<SensedArmTerms>>,
     link: FriLink,
     krl: KrlProgram,
     motion: MotionPlayer,
@@ -93,9 +97,19 @@ impl Simulation {
         let cycle_s = config.cycle_s();
         let substeps = (cycle_s * config.physics_rate_hz).ceil().max(1.0) as usize;
         let q = JointVector::from(config.initial_q());
-        let arm = Arm::new(&config, q)?;
-        let controller_model =
-            perturbed_model(&dynamics::lwr4(), &config.model, config.seed ^ SEED_MODEL);
+        // A real arm's profile: its identified dynamics are the truth, the controller computes
+        // from the nominal model as a KRC does (no perturbation on top).
+        let real = RealArm::of(&config.arm)?;
+        let arm = Arm::new(
+            &config,
+            real.as_ref().map_or_else(dynamics::lwr4, RealArm::model),
+            q,
+        )?;
+        let controller_model = match &real {
+            Some(_) => dynamics::lwr4(),
+            None => perturbed_model(&dynamics::lwr4(), &config.model, config.seed ^ SEED_MODEL),
+        };
+        let sensed = real.map(|a| Box::new(SensedArmTerms::new(&a, config.seed ^ SEED_ARM)));
         let motion = MotionPlayer::new(&config.motion, q);
         let end_s = config
             .duration_s
@@ -107,6 +121,7 @@ impl Simulation {
             arm,
             controller_model,
             sensors: TorqueSensors::new(&config.sensors, config.seed ^ SEED_SENSORS),
+            sensed,
             link: FriLink::new(
                 &config.controller,
                 &config.network,
@@ -199,6 +214,9 @@ impl Simulation {
         self.cycle += 1;
         self.time_s = self.cycle as f64 * self.cycle_s;
         self.sensors.advance(self.cycle_s);
+        if let Some(s) = &mut self.sensed {
+            s.advance(self.cycle_s);
+        }
         self.build_measurement();
         &self.measurement
     }
@@ -452,7 +470,11 @@ impl Simulation {
     /// Writes the measurement of the current state into `self.measurement`.
     fn build_measurement(&mut self) {
         let q_msr = self.sensors.read_encoders(&self.arm.q);
-        let tau_msr = self.sensors.read(&self.arm.tau_j);
+        let tau_sensed = match &self.sensed {
+            Some(s) => self.arm.tau_j + s.torque(&self.arm.q, &self.arm.qd),
+            None => self.arm.tau_j,
+        };
+        let tau_msr = self.sensors.read(&tau_sensed);
         let in_command = self.krl.state() == FriState::Command;
         let reading = Reading {
             q_msr: &q_msr,

@@ -1,5 +1,5 @@
-//! Command mode: following the controller (entered, lost, restarted), waiting for rest after a
-//! brake by the controller, planning and sampling the commanded move, and the handshake.
+//! Command mode: following the controller (entered, lost, restarted), watching its brake until
+//! the arm rests, planning and sampling the commanded move, and the handshake.
 
 use super::*;
 
@@ -13,23 +13,35 @@ impl CycleProcessor {
             fri,
         });
     }
-    /// While the controller brakes the arm after a loss of command mode, keeps the monitor
-    /// restarting; the wait ends once the arm was at rest for [`REST_CYCLES`] (or after
-    /// [`MAX_REST_WAIT_CYCLES`]), and the monitor's warm-up follows.
-    pub(super) fn wait_for_rest(&mut self, q: &V7, dt: f64) {
+    /// While the controller brakes the arm after a loss of command mode the monitor stays live
+    /// with the braking allowance; the window ends once the arm was at rest for
+    /// [`REST_CYCLES`] (or after [`MAX_REST_WAIT_CYCLES`]).
+    pub(super) fn follow_braking(&mut self, q: &V7, dt: f64) {
         let speed = self
             .previous_q
             .map_or(0.0, |p| (q - p).amax() / dt.max(f64::EPSILON));
         self.previous_q = Some(*q);
-        let Some(w) = &mut self.rest_wait else {
+        let Some(w) = &mut self.braking else {
             return;
         };
         w.waited += 1;
         w.quiet = if speed < REST_SPEED { w.quiet + 1 } else { 0 };
         if w.quiet >= REST_CYCLES || w.waited >= MAX_REST_WAIT_CYCLES {
-            self.rest_wait = None;
+            self.braking = None;
         }
-        self.restart_monitor();
+    }
+    /// Opens [`REJOIN_FILTER_CYCLES`] of matched filtering when the controller counted a
+    /// missed answer since the last measurement (its `intf.stat.missCounter` changed: a restart
+    /// resets it) or `cycles` > 1 measurements passed since the last one we saw.
+    pub(super) fn follow_missed_answers(&mut self, msr: &Measurement, cycles: u32) {
+        let misses = msr.interface.statistics.miss_counter;
+        let missed = self.previous_miss_counter.is_some_and(|m| m != misses) || cycles > 1;
+        self.previous_miss_counter = Some(misses);
+        self.rejoin_cycles_left = if missed {
+            REJOIN_FILTER_CYCLES
+        } else {
+            self.rejoin_cycles_left.saturating_sub(1)
+        };
     }
     /// Restarts the monitor; the unknown-payload view learns that it saw nothing meanwhile.
     fn restart_monitor(&mut self) {
@@ -61,14 +73,25 @@ impl CycleProcessor {
                     AbortReason::CommandModeLost
                 };
                 self.abort_move(reason, fri);
-                // The controller brakes the arm itself: its deceleration is no contact.
-                self.rest_wait = Some(RestWait {
+                // The controller brakes the arm itself: its deceleration is no contact, but a
+                // contact during it is. The monitor stays live (matched filtering keeps the
+                // braking's residual small) and sees the residual less an allowance for the
+                // momentum the stop removes.
+                let q = V7::from(msr.data.msr_jnt_pos);
+                let allowance =
+                    self.monitor.momentum_bound(&q, &self.last_velocity) * BRAKING_ALLOWANCE_PER_S;
+                // The unknown-payload view treats the stop like a restart: no fit meanwhile.
+                self.tolerance.interrupt();
+                self.braking = Some(BrakingWindow {
                     quiet: 0,
                     waited: 0,
+                    allowance,
                 });
-                self.emit(CycleEvent::Resynchronised {
+                let mut allowance_nm = [0.0; 7];
+                allowance_nm.copy_from_slice(allowance.as_slice());
+                self.emit(CycleEvent::Braking {
                     cycle: self.cycle,
-                    reason: ResyncReason::CommandModeLost,
+                    allowance_nm,
                     fri,
                 });
             }

@@ -13,7 +13,7 @@ pub(super) fn peak_acceleration(
     target: &V7,
     duration_s: f64,
     braking: bool,
-    limits: &crate::motion::MotionLimits<7>,
+    limits: &trajectory::MotionLimits<7>,
 ) -> V7 {
     let delta = target - start;
     let along = (0..7)
@@ -92,7 +92,7 @@ impl CycleProcessor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motion::MotionLimits;
+    use trajectory::MotionLimits;
 
     #[test]
     fn a_planned_move_peaks_at_its_quintic_and_a_brake_at_the_limits_along_its_line() {

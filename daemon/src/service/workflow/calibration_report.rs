@@ -77,6 +77,7 @@ impl ServiceCore {
             block_s: fit.block_s,
             max_speed: std::array::from_fn(|j| fit.joints[j].max_speed),
             max_acceleration: std::array::from_fn(|j| fit.joints[j].max_acceleration),
+            installed_from: None,
         };
         let payload_result: Option<AppliedPayloadResult> = payload.as_ref().map(applied);
         let ceiling = &self.config.observer.calibration_ceiling_nm;

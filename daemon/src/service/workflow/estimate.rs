@@ -139,6 +139,10 @@ impl ServiceCore {
             // The tare is applied here (Δτ = τ_loaded − τ_unloaded), not inside the estimator.
             correction: match (use_tare, e.correction) {
                 (true, _) => Correction::Tare,
+                // against the identified arm's g(q) and offsets (`fit_payload`)
+                (false, EstimatorCorrection::None) if self.arm.identified_arm().is_some() => {
+                    Correction::IdentifiedArm
+                }
                 (false, EstimatorCorrection::None) => Correction::None,
                 (false, EstimatorCorrection::Tare) => Correction::Tare,
                 (false, EstimatorCorrection::Calibration) => Correction::Calibration,

@@ -97,7 +97,7 @@ impl ServiceCore {
             }
         }
         .await;
-        self.release().await;
+        self.release();
         let _ = done.send(true);
         outcome
     }

@@ -12,6 +12,7 @@ pub mod estimate;
 pub mod estimate_verdict;
 pub mod excite;
 pub mod expect_payload;
+pub mod install;
 pub mod motion;
 pub mod payload;
 pub mod poses;

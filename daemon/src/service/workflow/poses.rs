@@ -13,7 +13,6 @@ use fri_api::results::{Event, Phase, ProcedureTiming, Progress, Workflow};
 use nalgebra::SVector;
 
 use super::acquire::Acquire;
-use crate::motion::JointMove;
 use crate::operator::server::EventSink;
 use crate::persistence::Clocks;
 use crate::service::core::{ServiceCore, err};
@@ -21,6 +20,7 @@ use crate::service::cycle::ProcessorSettings;
 use crate::service::pattern::{PatternKind, poses as pattern_poses};
 use crate::service::settle::AveragedSample;
 use fri_api::protocol::{ErrorCode, OperatorError};
+use trajectory::JointMove;
 
 /// A pose closer than this to the arm's measured one (every joint) is sampled without a move,
 /// rad (≈ 35 encoder counts; the controller's g_ctrl takes up the difference in the fit).
@@ -186,7 +186,7 @@ impl ServiceCore {
             Err(e) => Err(self.after_abort(e, start_q, baseline, workflow).await),
         };
         run.timing.total_s = self.now_or(latest.robot.time_s) - latest.robot.time_s;
-        self.release().await;
+        self.release();
         result.map(|()| run)
     }
 

@@ -54,7 +54,9 @@ fn event_of(e: CycleEvent) -> Option<Event> {
             })
         }
         // Its changes reach the watchers as audit records (the operator side records them).
-        CycleEvent::State(_) | CycleEvent::UnknownPayload { .. } => return None,
+        CycleEvent::State(_) | CycleEvent::UnknownPayload { .. } | CycleEvent::Braking { .. } => {
+            return None;
+        }
     })
 }
 

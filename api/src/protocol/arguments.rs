@@ -1,5 +1,5 @@
 //! Range checks of every numeric operator argument, run on the request's JSON before it becomes a
-//! [`super::protocol::Command`], so the error names the field, its value and its allowed range
+//! [`super::Command`], so the error names the field, its value and its allowed range
 //! (serde's own messages name neither). The table is documented in `docs/operator-protocol.md`.
 //!
 //! String arguments have their own rules where they are used (`record`'s file name: 1 to 255
@@ -11,8 +11,8 @@
 
 use serde_json::{Map, Value};
 
+use super::error::{ErrorCode, OperatorError};
 use crate::bounds::{self, JOINTS, Range};
-use crate::protocol::{ErrorCode, OperatorError};
 
 /// Whether an argument is a real number or a count.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -149,6 +149,35 @@ const ARGUMENTS: &[Argument] = &[
         elements: None,
         kind: Kind::Number,
         range: |_| bounds::FALSE_ALARM_BUDGET,
+    },
+    Argument {
+        commands: &["collision-install"],
+        field: "median_thresholds",
+        elements: Some(JOINTS),
+        kind: Kind::Number,
+        range: bounds::threshold,
+    },
+    Argument {
+        commands: &["collision-install"],
+        field: "period_s",
+        elements: None,
+        kind: Kind::Number,
+        range: |_| bounds::CYCLE_S,
+    },
+    Argument {
+        commands: &["collision-install"],
+        field: "gains",
+        elements: Some(JOINTS),
+        kind: Kind::Number,
+        // The tightest cycle-independent bound; the configured cycle's is checked on use.
+        range: |_| bounds::gain(bounds::MIN_CYCLE_S),
+    },
+    Argument {
+        commands: &["collision-install"],
+        field: "arm_offset",
+        elements: Some(JOINTS),
+        kind: Kind::Number,
+        range: bounds::joint_torque,
     },
     Argument {
         commands: &["watch"],

@@ -19,6 +19,8 @@
 //! # Ok(()) }
 //! ```
 
+pub mod log_lines;
+
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

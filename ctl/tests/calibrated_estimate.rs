@@ -1,5 +1,5 @@
 //! Issue 21 item 1: `estimate-payload` without a tare uses the identified arm, and says so. The
-//! simulator plays the real LWR 4+ profile (the arm identified on `../shared/data/real-lwr4`
+//! simulator plays the real LWR 4+ profile (the arm identified on `data/real-lwr4`
 //! run 1 as its true dynamics, offsets and friction, plus the torque that identification leaves
 //! unexplained: a part that repeats with the pose and correlated noise) carrying the paper's
 //! payload, 3.028 kg at (0, 0, 119) mm in frame 7; no tare is stored. A service told the arm

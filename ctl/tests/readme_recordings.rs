@@ -1,6 +1,6 @@
 //! The README's block "With your own arm's recordings", run as written: every `cargo run -p
 //! fri-ctl -- …` line of its first `sh` block, with `$D` the shared real recordings
-//! (`../shared/data/real-lwr4`, beside every clone: a missing file fails), in a fresh directory
+//! (`data/real-lwr4`, beside every clone: a missing file fails), in a fresh directory
 //! (the files the block writes, `arm.toml` and `thresholds.json`, are read by its later lines).
 //! A line must succeed, except under the comment that promises "no payload is detected": there
 //! it must fail (an offline command's exit 1) and say exactly that. Editing the block edits the test.
@@ -33,7 +33,7 @@ fn readme_block() -> Vec<(String, String)> {
 
 #[test]
 fn the_readme_block_on_the_real_recordings_runs_as_written() {
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/real-lwr4");
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/real-lwr4");
     assert!(
         data.join("flobaroid-run1.csv").is_file(),
         "the real recordings must be beside the clone: {}",
@@ -41,7 +41,7 @@ fn the_readme_block_on_the_real_recordings_runs_as_written() {
     );
     let dir = tempfile::tempdir().unwrap();
     let lines = readme_block();
-    assert_eq!(lines[0].1, "D=../shared/data/real-lwr4", "{lines:?}");
+    assert_eq!(lines[0].1, "D=data/real-lwr4", "{lines:?}");
     let mut ran = 0;
     for (comment, line) in &lines[1..] {
         let args = line

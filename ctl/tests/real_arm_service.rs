@@ -1,5 +1,5 @@
 //! The service on a real arm's recorded torques with the arm identified from its own data
-//! (`robot.calibration`, issue 21 item 1): run 1 of `../shared/data/real-lwr4` identifies the
+//! (`robot.calibration`, issue 21 item 1): run 1 of `data/real-lwr4` identifies the
 //! arm (`fri-ctl offline identify`), run 2 plays through the service as the controller (the
 //! replaying controller of `mock-robot --replay`, in lockstep). At per-joint thresholds between
 //! what the nominal model leaves on this arm and what the identified one leaves, the nominal

@@ -1,4 +1,4 @@
-//! `fri-ctl offline` on the real KUKA LWR 4+ recordings in `../shared/data/real-lwr4` (the same
+//! `fri-ctl offline` on the real KUKA LWR 4+ recordings in `data/real-lwr4` (the same
 //! excitation run twice): identify on run 1, then on run 2 the service's monitor at thresholds
 //! calibrated on run 1 crosses nothing, and every payload route reports no payload. A missing
 //! recording is a failure, never a skip.
@@ -13,7 +13,7 @@ use real_arm::assert_no_payload;
 
 fn run(name: &str) -> String {
     let path = format!(
-        "{}/../../shared/data/real-lwr4/{name}",
+        "{}/../data/real-lwr4/{name}",
         env!("CARGO_MANIFEST_DIR")
     );
     assert!(

@@ -1,4 +1,4 @@
-//! Issue 21 item 2: `record` on a real arm's torques. Run 2 of `../shared/data/real-lwr4`
+//! Issue 21 item 2: `record` on a real arm's torques. Run 2 of `data/real-lwr4`
 //! (without its filter edges) plays through the service on the arm identified from run 1, held
 //! to the controller's 1 ms clock, while `fri-ctl record --kind log` records 20 s of it. The
 //! recorded log (every cycle, as the service saw it) reads back in the offline tools as the

@@ -43,7 +43,7 @@ enum Cmd {
         #[arg(long, value_name = "FILE", num_args = 0..=1, default_missing_value = "target/demo/fri-service.toml")]
         ros2: Option<PathBuf>,
         /// The simulated arm: `nominal` (the shared LWR 4+ model) or `real-lwr4` (the real arm
-        /// of ../shared/data/real-lwr4 as its recordings describe it; docs/mock-robot.md).
+        /// of data/real-lwr4 as its recordings describe it; docs/mock-robot.md).
         #[arg(long, value_name = "PROFILE", default_value = "nominal")]
         arm: ArmProfile,
     },

@@ -149,7 +149,7 @@ fn demo_in_lockstep_reports_the_estimate_and_the_three_contacts() {
 }
 
 /// The demo on the real arm's profile (`--arm real-lwr4`: the identified LWR 4+ of
-/// ../shared/data/real-lwr4 with its offsets, friction and unexplained torque): the estimate's σ
+/// data/real-lwr4 with its offsets, friction and unexplained torque): the estimate's σ
 /// grows to what that arm's torques allow and still covers the truth, and the three contacts
 /// are detected.
 #[test]

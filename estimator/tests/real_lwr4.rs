@@ -1,4 +1,4 @@
-//! The real KUKA LWR 4+ recordings in `../shared/data/real-lwr4` (the same excitation run twice;
+//! The real KUKA LWR 4+ recordings in `data/real-lwr4` (the same excitation run twice;
 //! provenance in its README): the arm identified on one run predicts the other, the payload
 //! estimates of these unloaded runs stay within their σ of zero by every route, and the tare
 //! route accepts a repeat of the trajectory. A missing recording is a failure, never a skip.
@@ -18,7 +18,7 @@ type V7 = SVector<f64, 7>;
 
 fn read(name: &str) -> RecordedLog<7> {
     // tests run in the crate's folder: the repository's `../shared` is two levels up
-    let path = format!("../../shared/data/real-lwr4/{name}");
+    let path = format!("../data/real-lwr4/{name}");
     let file = std::fs::File::open(&path).unwrap_or_else(|e| {
         panic!("{path}: {e} (the shared real-arm recordings must be beside the repository)")
     });

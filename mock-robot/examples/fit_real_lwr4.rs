@@ -21,7 +21,7 @@ fn main() -> Result<()> {
     let spec = fit::fit_unexplained(&arm, &log1, &log2);
     println!(
         "# The real LWR 4+'s unexplained torque beyond the identified arm (real-lwr4.toml), per joint.\n\
-         # Fitted to ../shared/data/real-lwr4 run 1 and run 2 by\n\
+         # Fitted to data/real-lwr4 run 1 and run 2 by\n\
          # `cargo run -p mock-robot --example fit_real_lwr4 -- flobaroid-run1.csv flobaroid-run2.csv`\n\
          # (mock-robot/src/arm_profile/fit.rs); checked against the recordings by mock-robot/tests/real_profile.rs.\n"
     );

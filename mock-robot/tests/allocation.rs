@@ -52,7 +52,7 @@ fn cycles_are_allocation_free(extra: &str) {
 fn a_replay_cycle_is_allocation_free() {
     use mock_robot::{Controller, Replay};
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/data/real-lwr4/flobaroid-run2.csv");
+        .join("../data/real-lwr4/flobaroid-run2.csv");
     let mut replay = Replay::from_file(&path, 1).unwrap();
     let allocations = alloc_counter::count_allocations(|| {
         for k in 0..2000u16 {

@@ -99,7 +99,7 @@ fn binary_runs_scenario_in_lockstep_and_writes_truth() {
 /// The first `rows` rows of the real run 2 (`../shared` beside the repository) as a CSV file.
 fn short_real_log(dir: &std::path::Path, rows: usize) -> std::path::PathBuf {
     let real = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/data/real-lwr4/flobaroid-run2.csv");
+        .join("../data/real-lwr4/flobaroid-run2.csv");
     let text = std::fs::read_to_string(real).expect("the real recordings are in ../shared");
     let short: String = text
         .lines()

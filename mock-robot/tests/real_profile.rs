@@ -1,5 +1,5 @@
 //! The `real-lwr4` arm profile against the real recordings it was fitted to
-//! (`../shared/data/real-lwr4`, beside every clone: a missing file fails the test).
+//! (`data/real-lwr4`, beside every clone: a missing file fails the test).
 //!
 //! The simulated arm driven along run 2's trajectory must leave the nominal model a residual
 //! whose RMS, peak and correlation time (the low-frequency shape of its spectrum) are close to
@@ -19,7 +19,7 @@ use mock_robot::arm_profile::{RealArm, UnexplainedSpec, fit};
 use mock_robot::config::{ArmProfile, SensorSpec, SimulationConfig};
 use mock_robot::replay::{LogLimits, RecordedLog, read_log};
 
-const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/real-lwr4/");
+const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../data/real-lwr4/");
 
 fn run(n: u32) -> RecordedLog {
     let path = format!("{DATA}flobaroid-run{n}.csv");

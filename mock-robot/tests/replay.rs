@@ -14,7 +14,7 @@ use mock_robot::{Controller, EventKind};
 
 /// Run 2 of the real recordings (`../shared` beside the repository).
 fn run2() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/real-lwr4/flobaroid-run2.csv")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/real-lwr4/flobaroid-run2.csv")
 }
 
 /// The CSV as rows of 29 numbers (t, q1..7, qd1..7, qdd1..7, tau1..7), read independently.

@@ -1,5 +1,5 @@
 //! The calibration's contact screen (`safety::calibration::screen`) on real and simulated
-//! recordings: the real LWR 4+'s torques (`shared/data/real-lwr4`, run through the observer)
+//! recordings: the real LWR 4+'s torques (`data/real-lwr4`, run through the observer)
 //! and the mock robot's contact-free sweeps are fitted, a push on link 4 during a sweep is
 //! refused naming joint 1 and the time the push began.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
@@ -25,7 +25,7 @@ const REAL_GAIN: f64 = 80.0;
 /// records the service's states.
 fn real(file: &str) -> EnvelopeRecorder<7> {
     let path = format!(
-        "{}/../../shared/data/real-lwr4/{file}",
+        "{}/../data/real-lwr4/{file}",
         env!("CARGO_MANIFEST_DIR")
     );
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));

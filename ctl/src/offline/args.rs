@@ -272,7 +272,7 @@ pub struct MonitorArgs {
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub gains: Option<Vec<f64>>,
     /// Seconds dropped at each end of every log: a recording filtered without time shift
-    /// (zero phase, as the real recordings of `../shared/data/real-lwr4`) carries the filter's
+    /// (zero phase, as the real recordings of `data/real-lwr4`) carries the filter's
     /// transient there, which is no behaviour of the arm (0 to 10 s; default 0).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub edge_s: f64,
@@ -307,7 +307,7 @@ pub struct CalibrateThresholdsArgs {
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub gains: Option<Vec<f64>>,
     /// Seconds dropped at each end of every log: a recording filtered without time shift
-    /// (zero phase, as the real recordings of `../shared/data/real-lwr4`) carries the filter's
+    /// (zero phase, as the real recordings of `data/real-lwr4`) carries the filter's
     /// transient there, which is no behaviour of the arm (0 to 10 s; default 0).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub edge_s: f64,

@@ -24,7 +24,7 @@ pub const THRESHOLDS: [f64; 7] = [1.5, 3.5, 1.5, 3.0, 2.0, 0.9, 0.8];
 
 pub fn recording(name: &str) -> PathBuf {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/data/real-lwr4")
+        .join("../data/real-lwr4")
         .join(name);
     assert!(
         path.is_file(),

@@ -1,5 +1,5 @@
 //! Which arm the simulator is: the shared nominal LWR 4+ model (lwr4-model.md), or the real
-//! LWR 4+ of `../shared/data/real-lwr4` as its own recordings describe it.
+//! LWR 4+ of `data/real-lwr4` as its own recordings describe it.
 //!
 //! The real profile is two files in `mock-robot/profiles/`, both fitted to the recordings:
 //! `real-lwr4.toml`, the identified arm (`fri-ctl offline identify --log flobaroid-run1.csv`:

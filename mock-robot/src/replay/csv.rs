@@ -1,7 +1,7 @@
 //! CSV logs: a header line naming the columns, then one row per sample. Read by name, so both
 //! layouts replay:
 //!
-//! - the real LWR 4+ recordings (`../shared/data/real-lwr4/`): `t, q1..q7, qd1..qd7, qdd1..qdd7,
+//! - the real LWR 4+ recordings (`data/real-lwr4/`): `t, q1..q7, qd1..qd7, qdd1..qdd7,
 //!   tau1..tau7`;
 //! - the service's `record --kind log`: `cycle, time_s, flags, q1..q7, qd1..qd7, tau1..tau7,
 //!   g1..g7, tau_ext1..tau_ext7, r1..r7` (the columns not named here are ignored).

@@ -27,7 +27,7 @@
 //!    residual).
 //!
 //! Measured margins (limit 10.1 at 25 blocks; `safety/tests/calibration_screen.rs`): the real
-//! LWR 4+ recordings (`shared/data/real-lwr4`, through the observer at 200 Hz) score at most
+//! LWR 4+ recordings (`data/real-lwr4`, through the observer at 200 Hz) score at most
 //! 4.3, the mock robot's sweeps q_A, q_B, q_C at most 4.0; a 40 N push on link 4 during q_A
 //! scores far above the limit on joint 1.
 

@@ -12,10 +12,7 @@ use std::process::{Command, Output};
 use real_arm::assert_no_payload;
 
 fn run(name: &str) -> String {
-    let path = format!(
-        "{}/../data/real-lwr4/{name}",
-        env!("CARGO_MANIFEST_DIR")
-    );
+    let path = format!("{}/../data/real-lwr4/{name}", env!("CARGO_MANIFEST_DIR"));
     assert!(
         Path::new(&path).is_file(),
         "{path} is missing (the shared real-arm recordings must be beside the repository)"
@@ -130,24 +127,37 @@ fn capped(fit: &serde_json::Value) -> Vec<usize> {
         .collect()
 }
 
+/// Joints whose block maxima the report calls heavier-tailed than Gumbel.
+fn heavy(fit: &serde_json::Value) -> Vec<usize> {
+    (0..7)
+        .filter(|&j| fit["joints"][j]["model"] == "heavy")
+        .map(|j| j + 1)
+        .collect()
+}
+
 /// The real recordings were filtered without time shift (their README): their first and last
-/// half second carry the filter's transient. Calibrated on all of run 1, joints 2, 4 and 6
-/// reach the ceiling (block maxima from the log's last second: scales 345, 9725 and 97 against
-/// 18, 14 and 10); with 0.5 s dropped at each end only joint 5 does, the others calibrate to a
-/// few Nm (median over the run), and run 2 without its edges is never crossed; played whole,
-/// it is crossed only inside its edges.
+/// half second carry the filter's transient. Calibrated on all of run 1, joint 4 reaches the
+/// ceiling (its block maxima from the log's last second; heavy-tailed there as J2, J5 and J6
+/// are); with 0.5 s dropped at each end no joint does: every median threshold is below the
+/// paper's 6 Nm, joint 5's heavy tail (its reversals, the test below) is reported and held at
+/// the light-tail level instead of the ~2000× envelope a GEV extrapolated before (25 Nm, no
+/// detection), and run 2 without its edges is never crossed; played whole, it is crossed only
+/// inside its edges.
 #[test]
-fn without_the_recordings_filter_edges_only_joint_5_calibrates_at_the_ceiling_and_run_2_holds() {
+fn without_the_recordings_filter_edges_no_joint_calibrates_at_the_ceiling_and_run_2_holds() {
     let dir = Dir::new("edges");
     let (arm, thresholds) = (dir.file("arm.toml"), dir.file("thresholds.json"));
     let _ = identify("flobaroid-run1.csv", &arm);
     let calibrate = |edge: &str| calibrate_run_1(&arm, &thresholds, edge);
-    let whole = capped(&calibrate("0"));
-    assert!([2, 4, 6].iter().all(|j| whole.contains(j)), "{whole:?}");
+    let whole = calibrate("0");
+    assert!(capped(&whole).contains(&4), "{whole}");
+    assert!(heavy(&whole).contains(&4), "{whole}");
     let fit = calibrate("0.5");
-    let edged = capped(&fit);
-    for j in [1, 2, 3, 4, 6, 7] {
-        assert!(!edged.contains(&j), "J{j} at the ceiling: {fit}");
+    assert_eq!(capped(&fit), Vec::<usize>::new(), "{fit}");
+    assert_eq!(heavy(&fit), vec![5], "{fit}");
+    for j in 0..7 {
+        let median = fit["joints"][j]["threshold_median"].as_f64().unwrap();
+        assert!(median < 6.0, "J{}: median θ {median} Nm: {fit}", j + 1);
     }
     let monitor = |edge: &str| monitor_run_2(&arm, &thresholds, edge);
     let log = monitor("0.5");
@@ -193,15 +203,15 @@ fn reversals(path: &str, joint: usize) -> Vec<f64> {
         .collect()
 }
 
-/// Why joint 5 calibrates to the ceiling (issue 21): its residual's largest peaks sit at its own
+/// Why joint 5's tail is heavy (issue 21): its residual's largest peaks sit at its own
 /// velocity reversals (five in this excitation, four of them with q6 ≈ 0, where J5's inertia —
 /// and so its envelope's velocity-noise feature — is smallest). No envelope feature represents
 /// a reversal (|q̇| is zero there), so the few blocks holding one carry block maxima far above
-/// the rest: a heavy tail (shape 0.21–0.68) that the budget's extrapolation turns into the
-/// ceiling. It is not the Coulomb model's smoothness (the same five onsets at v0 = 0.005 and
-/// 0.05 rad/s), nor the envelope fit's weighting (fitted to relative error, J5 stays at the
-/// ceiling and J2 joins it). When a model or a feature covers the reversals, these onsets go
-/// and this test is to say so instead.
+/// the rest: a heavy tail (shape 0.21–0.68) that a GEV extrapolation turned into the ceiling
+/// (the calibration now reports it and keeps the light-tail level). It is not the Coulomb
+/// model's smoothness (the same five onsets at v0 = 0.005 and 0.05 rad/s), nor the envelope
+/// fit's weighting (fitted to relative error, J2's tail grew heavy too). When a model or a
+/// feature covers the reversals, these onsets go and this test is to say so instead.
 #[test]
 fn joint_5s_largest_residuals_sit_at_its_velocity_reversals() {
     let dir = Dir::new("reversals");
@@ -278,10 +288,9 @@ fn thresholds_calibrated_on_run_1_are_never_crossed_on_run_2() {
     for j in &capped {
         assert!(text.contains(&format!("J{j}")), "{text}");
     }
-    // the check below has teeth only where the fit bounds the residual: on the whole log J1, J3
-    // and J7 (J2, J4 and J6 reach the ceiling from the recording's filter edges, see the test
-    // above; J5 from heavy-tailed block maxima, BENCHMARKS.md "Real LWR 4+")
-    for j in [1, 3, 7] {
+    // the check below has teeth only where the fit bounds the residual: on the whole log all
+    // but J4 (it reaches the ceiling from the recording's filter edges, see the test above)
+    for j in [1, 2, 3, 5, 6, 7] {
         assert!(!capped.contains(&j), "J{j} at the ceiling: {fit}");
     }
     let log = &monitor_run_2(&arm, &thresholds, "0");

@@ -24,10 +24,7 @@ const REAL_GAIN: f64 = 80.0;
 /// the recorded velocities, dt from `t`) and the feature tracker, as `collision calibrate`
 /// records the service's states.
 fn real(file: &str) -> EnvelopeRecorder<7> {
-    let path = format!(
-        "{}/../data/real-lwr4/{file}",
-        env!("CARGO_MANIFEST_DIR")
-    );
+    let path = format!("{}/../data/real-lwr4/{file}", env!("CARGO_MANIFEST_DIR"));
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
     let model = dynamics::lwr4();
     let mut config = ObserverConfig::<7>::new(REAL_PERIOD_S, REAL_GAIN);

@@ -19,7 +19,9 @@ pub struct JointFit {
     /// Envelope coefficients of |r|: floor (Nm), speed (Nm·s/rad), velocity noise (Nm per
     /// kg·m²), payload dynamics (1), inertial torque (1), gravity torque (1).
     pub envelope: [f64; 6],
-    /// Extreme-value model of the normalised block maxima: `gumbel` or `gev`.
+    /// Tail of the normalised block maxima: `gumbel`, or `heavy` (the GEV shape's interval lies
+    /// above zero: the envelope misses a regime and the budget is not supported on this joint;
+    /// the threshold is still the Gumbel level, never a heavy tail's extrapolation).
     pub model: String,
     /// 5–95 % bootstrap interval of the GEV shape ξ (> 0: heavy tail).
     pub shape_interval: [f64; 2],

@@ -42,10 +42,7 @@ fn joint_fits(fit: &Calibration<7>) -> Vec<JointFit> {
             threshold_median: j.threshold_median_nm,
             threshold_max: j.threshold_max_nm,
             envelope: j.envelope,
-            model: match j.model {
-                safety::calibration::ExtremeModel::Gumbel => "gumbel".to_owned(),
-                safety::calibration::ExtremeModel::Gev => "gev".to_owned(),
-            },
+            model: j.tail.name().to_owned(),
             shape_interval: j.shape_interval,
             scale: j.scale,
             scale_point: j.scale_point,
@@ -240,6 +237,26 @@ fn thresholds_report(f: &ThresholdsFile, path: &Path, edge_s: f64) -> String {
             s,
             "  WARNING: the fit reaches the service's ceiling (a quarter of the torque limit) on {} in the recorded motion: there the budget is met only by not detecting; record longer or more of the task and calibrate again",
             capped.join(", ")
+        );
+    }
+    let heavy: Vec<String> = j
+        .iter()
+        .enumerate()
+        .filter(|(_, x)| x.model == "heavy")
+        .map(|(i, x)| {
+            format!(
+                "J{} (GEV shape {:.2}…{:.2})",
+                i + 1,
+                x.shape_interval[0],
+                x.shape_interval[1]
+            )
+        })
+        .collect();
+    if !heavy.is_empty() {
+        let _ = writeln!(
+            s,
+            "  WARNING: the residual's block maxima are heavier-tailed than Gumbel on {}: the envelope misses a regime of the residual there, so the budget is not supported (expect more false alarms than it); the threshold is the light-tail level, never a heavy tail's extrapolation (which would not detect)",
+            heavy.join(", ")
         );
     }
     let _ = writeln!(

@@ -107,6 +107,20 @@ impl Operation for Calibrate<'_> {
                 }
             )?;
         }
+        for (j, fit) in r
+            .joints
+            .iter()
+            .enumerate()
+            .filter(|(_, f)| f.model == "heavy")
+        {
+            writeln!(
+                out,
+                "HEAVY TAIL     joint {}: GEV shape {}…{} > 0, the envelope misses a regime; the budget is not supported there (more false alarms than it), the threshold is the light-tail level",
+                j + 1,
+                fixed(fit.shape_interval[0], 2),
+                fixed(fit.shape_interval[1], 2)
+            )?;
+        }
         if r.applied {
             writeln!(out, "applied and stored:")?;
             print_monitor(&r.settings, out)

@@ -4,7 +4,7 @@
 use nalgebra::{SMatrix, SVector};
 
 use super::bootstrap::{bootstrap, quantile, quantile_sorted};
-use super::extreme::{ExtremeFit, extreme_model};
+use super::extreme::{ExtremeFit, TailShape, tail_shape};
 use super::nnls::nnls;
 use super::recorder::{EnvelopeRecorder, Window};
 use super::{
@@ -57,14 +57,20 @@ impl<const N: usize> EnvelopeRecorder<N> {
                 .collect();
             let extreme =
                 ExtremeFit::fit(&maxima).ok_or(CalibrationError::Degenerate { joint: j })?;
-            let (model, shape_interval) = extreme_model(&maxima, options);
+            let (tail, shape_interval) = tail_shape(&maxima, options);
             let level = |sample: &[f64]| {
-                ExtremeFit::fit(sample).map_or(f64::NAN, |f| f.return_level(p_block, model))
+                ExtremeFit::fit(sample).map_or(f64::NAN, |f| f.return_level(p_block))
             };
             let point = level(&maxima);
             let boot = bootstrap(&maxima, options.resamples, options.seed ^ j as u64, level);
             let upper = quantile(&boot, options.confidence);
-            let s = upper.max(point);
+            // A heavy tail's Gumbel level may fall below the recording's own largest maximum:
+            // the threshold never alarms on the recording it was fitted to.
+            let floor = match tail {
+                TailShape::Heavy => maxima.iter().copied().fold(0.0, f64::max),
+                TailShape::Gumbel => 0.0,
+            };
+            let s = upper.max(point).max(floor);
             let mean = boot.iter().sum::<f64>() / boot.len() as f64;
             let std = (boot.iter().map(|x| (x - mean).powi(2)).sum::<f64>()
                 / (boot.len().max(2) - 1) as f64)
@@ -93,7 +99,7 @@ impl<const N: usize> EnvelopeRecorder<N> {
             joints.push(JointCalibration {
                 envelope: coefficients,
                 extreme,
-                model,
+                tail,
                 shape_interval,
                 scale: s,
                 scale_point: point,
@@ -199,6 +205,36 @@ mod tests {
             rec.push(k as f64 * 1e-3, &r, &f);
         }
         rec
+    }
+
+    #[test]
+    fn a_regime_the_envelope_misses_is_reported_as_a_heavy_tail_and_never_explodes() {
+        // Joint 1: the noise of `record`, and every 7th second a 30 ms burst four times as
+        // loud (a regime no feature represents, e.g. a friction reversal); joint 2 stays plain.
+        let mut rng = SplitMix64(11);
+        let mut rec = EnvelopeRecorder::<2>::new();
+        for k in 0..60_000usize {
+            let v = (k as f64 * 1e-3 * 0.7).sin().abs();
+            let f = MotionFeatures::from_speed(&V2::repeat(v));
+            let (u1, u2) = (rng.uniform().max(1e-300), rng.uniform());
+            let g = (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
+            let burst = if k % 7000 < 30 { 4.0 } else { 1.0 };
+            let r = V2::new(0.1 * g * burst, 0.1 * g);
+            rec.push(k as f64 * 1e-3, &r, &f);
+        }
+        let c = rec.fit(&FitOptions::<2>::new(1e-3)).unwrap();
+        let (burst, plain) = (&c.joints[0], &c.joints[1]);
+        assert_eq!(burst.tail, TailShape::Heavy, "{burst:?}");
+        assert_eq!(plain.tail, TailShape::Gumbel, "{plain:?}");
+        // The heavy tail's own extrapolation would be many times the Gumbel level used.
+        let p = 0.1 / 2.0 / 3600.0;
+        assert!(
+            burst.extreme.gev_return_level(p) > 3.0 * burst.scale,
+            "{burst:?}"
+        );
+        // Never an alarm on its own recording, and of the order of the bursts, not beyond.
+        assert_eq!(burst.exceedances, 0, "{burst:?}");
+        assert!(burst.threshold_median_nm < 3.0 * burst.peak_nm, "{burst:?}");
     }
 
     #[test]

@@ -11,11 +11,11 @@
 //! 3. **Envelope** e_j(φ) = a_j + Σ_k c_jk·φ_jk: non-negative least squares of the windows'
 //!    |r_j| on (1, φ_j) — a scale model: |r_j| = e_j(φ)·z_j with z_j stationary.
 //! 4. **Extreme values**: z_j = |r_j|/e_j per window, maxima per block of `block_s`, fitted with
-//!    a Gumbel distribution (a generalised extreme-value one when its shape is significantly
-//!    heavy-tailed; a significantly bounded tail keeps the Gumbel, which is then conservative)
-//!    by L-moments. The budget B false alarms per hour is split over the joints (union bound),
-//!    so joint j may exceed with probability p = (B/N)·block_s/3600 per block; its scale s_j is
-//!    the fit's return level for p, at the upper bound of a block bootstrap at `confidence`.
+//!    a Gumbel distribution by L-moments (a light tail by construction: a GEV shape above zero
+//!    is reported as [`TailShape::Heavy`], never extrapolated — [`extreme`] says why). The
+//!    budget B false alarms per hour is split over the joints (union bound), so joint j may
+//!    exceed with probability p = (B/N)·block_s/3600 per block; its scale s_j is the fit's
+//!    return level for p, at the upper bound of a block bootstrap at `confidence`.
 //! 5. **Thresholds** θ_j(φ) = s_j·e_j(φ): θ0_j = s_j·a_j at rest and the
 //!    [`ThresholdSchedule`] coefficients s_j·c_jk, clamped into the allowed range.
 //!
@@ -25,7 +25,7 @@
 //! thresholds should be checked on a second recording.
 //!
 //! Modules: [`recorder`] (the windows), [`fit`] (envelope and scale per joint), `nnls` (the
-//! envelope's non-negative least squares), [`extreme`] (L-moment Gumbel/GEV fit), `bootstrap`
+//! envelope's non-negative least squares), [`extreme`] (L-moment Gumbel fit, GEV tail test), `bootstrap`
 //! (resampling and quantiles), `gamma` (Γ for the GEV), `rng` (the deterministic generator),
 //! [`force`] (minimum detectable force), [`screen`] (the contact screen).
 
@@ -44,7 +44,7 @@ pub mod recorder;
 mod rng;
 pub mod screen;
 
-pub use extreme::{ExtremeFit, ExtremeModel};
+pub use extreme::{ExtremeFit, TailShape};
 pub use force::{LinkForce, minimum_detectable_force};
 pub use recorder::EnvelopeRecorder;
 pub use screen::{ContactOnset, ScreenMargin};
@@ -177,8 +177,8 @@ pub struct JointCalibration {
     pub envelope: [f64; ENVELOPE_TERMS],
     /// Extreme-value fit of the normalised block maxima.
     pub extreme: ExtremeFit,
-    /// The model used for the return level.
-    pub model: ExtremeModel,
+    /// What the maxima say of their tail (the return level is Gumbel's either way).
+    pub tail: TailShape,
     /// 5–95 % bootstrap interval of the GEV shape ξ.
     pub shape_interval: [f64; 2],
     /// Scale s_j used: θ_j = s_j·e_j(φ) (the upper bound at the options' confidence).

@@ -45,10 +45,7 @@ impl ServiceCore {
                 threshold_median: j.threshold_median_nm,
                 threshold_max: j.threshold_max_nm,
                 envelope: j.envelope,
-                model: match j.model {
-                    safety::calibration::ExtremeModel::Gumbel => "gumbel".to_owned(),
-                    safety::calibration::ExtremeModel::Gev => "gev".to_owned(),
-                },
+                model: j.tail.name().to_owned(),
                 shape_interval: j.shape_interval,
                 scale: j.scale,
                 scale_point: j.scale_point,

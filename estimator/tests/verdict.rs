@@ -114,10 +114,14 @@ proptest! {
             Err(e) => prop_assert!(problem_of_error(&e, &b).is_some(), "{e}"),
         }
 
-        // Against the controller's gravity its model error joins the σ (as in the service).
+        // Against the controller's gravity its model error joins the σ (as in the service), and
+        // the load seen is within 3σ of the truth: an absolute error of the model's size (the
+        // example draw biases the mass by ≈ 0.03 kg), not a share of the mass — 10 % of it, the
+        // bound before, failed for the lightest loads (0.3 kg seen as 0.332 kg, σ 0.039 kg).
         let controller = Bounds { reference_mass_std_kg: CONTROLLER_MODEL_MASS_STD_KG, ..b };
         let seen = load_seen(&estimate_direct(&model, &loaded_tare, &opts), &controller).unwrap();
-        prop_assert!(seen.loaded && (seen.mass_kg - m).abs() < 0.1 * m, "{seen:?}");
+        prop_assert!(seen.mass_std_kg >= CONTROLLER_MODEL_MASS_STD_KG, "{seen:?}");
+        prop_assert!(seen.loaded && (seen.mass_kg - m).abs() < 3.0 * seen.mass_std_kg, "{seen:?}");
         // Without a load the fit against the erroneous gravity sees the model error (the example
         // draw gives ≈ 0.03 kg): within it, not a load.
         let unloaded = load_seen(&estimate_direct(&model, &unloaded_tare, &opts), &controller);

@@ -781,17 +781,17 @@ pub fn calibrated(args: &Args) {
 }
 
 fn calibration_table(report: &mut String, cal: &Calibration<7>) {
-    writeln!(report, "| joint | θ at rest [Nm] | median θ [Nm] | max θ [Nm] | envelope floor / speed / noise / payload / inertial / gravity | model | scale s (point, σ, 90 % interval) | peak \\|r\\| [Nm] | max \\|q̇\\| [rad/s] | max \\|q̈\\| [rad/s²] |\n|---|---|---|---|---|---|---|---|---|---|").unwrap();
+    writeln!(report, "| joint | θ at rest [Nm] | median θ [Nm] | max θ [Nm] | envelope floor / speed / noise / payload / inertial / gravity | tail | scale s (point, σ, 90 % interval) | peak \\|r\\| [Nm] | max \\|q̇\\| [rad/s] | max \\|q̈\\| [rad/s²] |\n|---|---|---|---|---|---|---|---|---|---|").unwrap();
     for (j, c) in cal.joints.iter().enumerate() {
         writeln!(
             report,
-            "| {} | {:.2} | {:.2} | {:.2} | {:.3} / {:.3} / {:.3} / {:.3} / {:.3} / {:.4} | {:?} (ξ ∈ [{:.2}, {:.2}]) | {:.2} ({:.2}, {:.2}, [{:.2}, {:.2}]) | {:.2} | {:.2} | {:.2} |",
+            "| {} | {:.2} | {:.2} | {:.2} | {:.3} / {:.3} / {:.3} / {:.3} / {:.3} / {:.4} | {} (ξ ∈ [{:.2}, {:.2}]) | {:.2} ({:.2}, {:.2}, [{:.2}, {:.2}]) | {:.2} | {:.2} | {:.2} |",
             j + 1,
             c.threshold_at_rest_nm,
             c.threshold_median_nm,
             c.threshold_max_nm,
             c.envelope[0], c.envelope[1], c.envelope[2], c.envelope[3], c.envelope[4], c.envelope[5],
-            c.model,
+            c.tail.name(),
             c.shape_interval[0], c.shape_interval[1],
             c.scale, c.scale_point, c.scale_std, c.scale_interval[0], c.scale_interval[1],
             c.peak_nm,

@@ -64,8 +64,11 @@ impl<const N: usize> EnvelopeRecorder<N> {
             let point = level(&maxima);
             let boot = bootstrap(&maxima, options.resamples, options.seed ^ j as u64, level);
             let upper = quantile(&boot, options.confidence);
-            // A heavy tail's Gumbel level may fall below the recording's own largest maximum:
-            // the threshold never alarms on the recording it was fitted to.
+            // A heavy tail's Gumbel level follows the bulk of the maxima and may fall below the
+            // few largest (the regime the envelope misses): floored at the largest, the
+            // threshold never alarms on the recording it was fitted to, and it never exceeds
+            // what the recording itself showed (an extrapolation through those few — a GEV, or
+            // a light tail anchored on them — multiplied it by tens to thousands).
             let floor = match tail {
                 TailShape::Heavy => maxima.iter().copied().fold(0.0, f64::max),
                 TailShape::Gumbel => 0.0,

@@ -2,11 +2,18 @@
 //! `fri_service::audit`, level INFO, or WARN for a change that weakens the monitor) naming its
 //! origin, and one `audit` event to every `watch`.
 //!
-//! The log's volume is bounded by a token bucket ([`BURST`] lines, refilled at [`RATE_PER_S`]
-//! lines/s): a flood of requests or contacts cannot fill the disk. A dropped line is counted and
-//! the next line that is written says how many were dropped before it (or, when no change
-//! follows, a line of its own: [`Audit::report_suppressed`]). The `watch` stream is not
-//! thinned (its broadcast channel is bounded on its own; a slow watcher lags and is told so).
+//! A change of the safety function (arm, disarm, thresholds, calibration, payload, the
+//! unknown-payload mode, stop, resume, tare, a hold or release by the service, a restart of the
+//! monitor …) is never dropped: it takes effect only through a request that was accepted or
+//! through the loop, so its lines are as many as the changes. What a flood of requests can
+//! multiply is the requests' own `command` records, written before a request runs whether or
+//! not it is then refused: their volume alone is bounded by a token bucket ([`BURST`] lines,
+//! refilled at [`RATE_PER_S`] lines/s), so 10 000 refused requests cannot fill the disk, nor
+//! thin out the one disarm among them (issue 34: one bucket for every record let such a flood
+//! turn the disarm into a "suppressed=N" count). A dropped `command` line is counted and the
+//! next line that is written says how many were dropped before it (or, when none follows, a
+//! line of its own: [`Audit::report_suppressed`]). The `watch` stream is not thinned (its
+//! broadcast channel is bounded on its own; a slow watcher lags and is told so).
 
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -16,9 +23,9 @@ use fri_api::origin::Origin;
 use fri_api::results::{AuditRecord, Change, StopCause};
 use tokio::sync::broadcast;
 
-/// Lines the log may write at once after a quiet period.
+/// Requests' `command` lines the log may write at once after a quiet period.
 pub const BURST: f64 = 100.0;
-/// Lines per second the log may write in the long run.
+/// Requests' `command` lines per second the log may write in the long run.
 pub const RATE_PER_S: f64 = 10.0;
 /// Audit records kept for a slow `watch` client.
 const BACKLOG: usize = 256;
@@ -71,14 +78,19 @@ impl Audit {
         self.records.subscribe()
     }
 
-    /// Records `change` made by `origin`: one log line (unless the volume bound drops it) and
-    /// one event to every watcher. Returns the record.
+    /// Records `change` made by `origin`: one log line (a request's `command` line unless the
+    /// volume bound drops it; a change always) and one event to every watcher. Returns the
+    /// record.
     pub fn record(&self, origin: &Origin, change: Change) -> AuditRecord {
         let time_unix_s = SystemTime::now()
             .duration_since(UNIX_EPOCH)
             .map_or(0.0, |d| d.as_secs_f64());
         self.recorded.fetch_add(1, Ordering::Relaxed);
-        let admitted = self.admit();
+        let admitted = if matches!(change, Change::Command { .. }) {
+            self.admit()
+        } else {
+            Some(self.with_bucket(|b| std::mem::take(&mut b.suppressed)))
+        };
         let record = AuditRecord {
             time_unix_s,
             origin: origin.clone(),
@@ -192,13 +204,19 @@ fn log(record: &AuditRecord) {
 mod tests {
     use super::*;
 
+    fn command() -> Change {
+        Change::Command {
+            command: "apply-payload".into(),
+        }
+    }
+
     #[test]
-    fn the_log_is_bounded_and_says_what_it_dropped() {
+    fn the_requests_lines_are_bounded_and_say_what_they_dropped() {
         let audit = Audit::new();
         let mut rx = audit.subscribe();
         let o = Origin::Service;
         let n = BURST as usize + 50;
-        let records: Vec<AuditRecord> = (0..n).map(|_| audit.record(&o, Change::Stopped)).collect();
+        let records: Vec<AuditRecord> = (0..n).map(|_| audit.record(&o, command())).collect();
         // Every record reaches the watchers.
         for _ in 0..n {
             assert!(rx.try_recv().is_ok());
@@ -211,19 +229,46 @@ mod tests {
             assert!(b.suppressed >= 45, "{}", b.suppressed);
             b.tokens = 1.0;
         }
-        let next = audit.record(&o, Change::Resumed);
+        let next = audit.record(&o, command());
         assert!(next.suppressed_before >= 45, "{}", next.suppressed_before);
+    }
+
+    /// Issue 34 item 2: 10 000 refused requests around one disarm. Their `command` lines are
+    /// bounded; the disarm's change is written (not turned into a count), with the count of
+    /// the request lines dropped before it.
+    #[test]
+    fn a_flood_of_requests_never_drops_the_change_among_them() {
+        let audit = Audit::new();
+        let o = Origin::Service;
+        for _ in 0..5_000 {
+            audit.record(&o, command());
+        }
+        let before = audit.with_bucket(|b| b.suppressed);
+        assert!(before >= 4_800, "{before}");
+        let disarmed = audit.record(&o, Change::Disarmed);
+        assert_eq!(disarmed.suppressed_before, before, "written, with the count");
+        for _ in 0..5_000 {
+            audit.record(&o, command());
+        }
+        // Every change is written however empty the requests' bucket is.
+        audit.with_bucket(|b| b.tokens = 0.0);
+        for change in [Change::Armed, Change::Disarmed, Change::Resumed, Change::Stopped] {
+            let suppressed = audit.with_bucket(|b| b.suppressed);
+            assert_eq!(audit.record(&o, change).suppressed_before, suppressed);
+            assert_eq!(audit.with_bucket(|b| b.suppressed), 0);
+        }
+        assert_eq!(audit.recorded(), 10_005);
     }
 
     #[test]
     fn suppressed_records_are_reported_without_a_further_change() {
         let audit = Audit::new();
         assert_eq!(audit.report_suppressed(), None);
-        // An empty bucket (a token takes a tenth of a second): five records are suppressed,
-        // three more never reached the trail.
+        // An empty bucket (a token takes a tenth of a second): five request lines are
+        // suppressed, three more records never reached the trail.
         audit.with_bucket(|b| b.tokens = 0.0);
         for _ in 0..5 {
-            audit.record(&Origin::Service, Change::Stopped);
+            audit.record(&Origin::Service, command());
         }
         audit.note_dropped(3);
         audit.with_bucket(|b| b.tokens = 0.0);

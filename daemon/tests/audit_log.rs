@@ -1,8 +1,8 @@
 //! The audit trail as log lines (issue 20 item 9): every safety-relevant change is one line of
 //! target `fri_service::audit` naming its origin — the configuration at start, the service for
 //! what the loop does on its own (collisions, holds and releases by the reaction), the operator's
-//! uid for requests — and a flood of requests writes at most BURST + RATE × t lines, with the
-//! suppressed count reported.
+//! uid for requests — and a flood of requests writes at most BURST + RATE × t of its requests'
+//! lines, with the suppressed count reported, and never drops a change among them.
 //!
 //! The log is captured by this test binary's global tracing subscriber; the tests take turns
 //! (one service at a time) so that each sees only its own lines.
@@ -142,12 +142,14 @@ fn five_collisions_are_five_lines_naming_the_service() {
     });
 }
 
-/// 10 000 `collision arm`/`disarm` requests as fast as the socket takes them: every one is a
-/// record (the command, and the arming when it was accepted), at most BURST + RATE × t of them
-/// are written, and the count of the others is reported by a line of its own once the flood
-/// ends (no further change needed): written + reported = recorded.
+/// Issue 34 item 2: 10 000 refused requests (`apply-payload` with a centre of mass beyond the
+/// flange's reach) as fast as the socket takes them, with one `collision disarm` in their
+/// middle. Every request is a `command` record; at most BURST + RATE × t of those lines are
+/// written, and the count of the others is reported by a line of its own once the flood ends;
+/// the disarm's change is written however empty the requests' budget is (before, one bucket for
+/// every record turned it into a count): written + reported = recorded.
 #[test]
-fn a_flood_of_requests_writes_a_bounded_log_and_reports_what_it_suppressed() {
+fn a_flood_of_refused_requests_never_hides_the_disarm_among_them() {
     let _turn = exclusive();
     runtime().block_on(async {
         let dir = tempfile::tempdir().unwrap();
@@ -164,34 +166,40 @@ fn a_flood_of_requests_writes_a_bounded_log_and_reports_what_it_suppressed() {
         const N: u64 = 10_000;
         let started = Instant::now();
         // Pipelined on one connection, at most 16 in flight (the per-connection limit).
-        let mut ok = 0u64;
-        let mut sent = 0u64;
-        let mut answered = 0u64;
+        let (mut ok, mut sent, mut answered) = (0u64, 0u64, 0u64);
         while answered < N {
             while sent < N && sent - answered < 16 {
-                let action = if sent.is_multiple_of(2) { "disarm" } else { "arm" };
-                let line = format!("{{\"id\":{sent},\"cmd\":\"collision\",\"action\":\"{action}\"}}\n");
+                let line = if sent == N / 2 {
+                    format!("{{\"id\":{sent},\"cmd\":\"collision\",\"action\":\"disarm\"}}\n")
+                } else {
+                    format!("{{\"id\":{sent},\"cmd\":\"apply-payload\",\"mass\":1.0,\"com\":[0.0,0.0,0.9]}}\n")
+                };
                 c.send_raw(line.as_bytes()).await.unwrap();
                 sent += 1;
             }
             match c.next_reply().await.unwrap() {
                 Reply::Ok { .. } => ok += 1,
-                Reply::Err { error, .. } => assert_eq!(error.code, ErrorCode::Busy, "{error:?}"),
+                Reply::Err { error, .. } => assert!(
+                    matches!(error.code, ErrorCode::Busy | ErrorCode::InvalidArguments),
+                    "{error:?}"
+                ),
                 Reply::Event { .. } => continue,
             }
             answered += 1;
         }
         let flood_s = started.elapsed().as_secs_f64();
-        let during = lines().len() - before;
-        // Every request is a `command` record, an accepted one also an `armed`/`disarmed` (and
-        // the loop may add its own, e.g. a contact found on arming).
-        let recorded = audit.recorded() - recorded_before;
-        assert!(recorded >= N + ok, "{recorded} records of {N} requests, {ok} accepted");
+        // The disarm was accepted (not `busy`): its line is written, at WARN.
+        assert_eq!(ok, 1, "the disarm");
+        let disarmed = of(&lines()[before..], "disarmed");
+        assert_eq!(disarmed.len(), 1, "the disarm's line");
+        assert!(disarmed[0].contains("WARN"), "{disarmed:?}");
+        let commands = of(&lines()[before..], "command").len();
         let bound = BURST + RATE_PER_S * flood_s;
         assert!(
-            (during as f64) <= bound + 1.0,
-            "{during} lines in {flood_s:.2} s (bound {bound:.0})"
+            (commands as f64) <= bound + 1.0,
+            "{commands} request lines in {flood_s:.2} s (bound {bound:.0})"
         );
+        let recorded = audit.recorded() - recorded_before;
         // Once the flood ends, the suppressed count is reported by itself (within a second or
         // two; bounded wait, a missing report fails).
         let deadline = Instant::now() + Duration::from_secs(10);
@@ -217,7 +225,7 @@ fn a_flood_of_requests_writes_a_bounded_log_and_reports_what_it_suppressed() {
             .filter_map(|n| n.parse::<u64>().ok())
             .sum();
         eprintln!(
-            "{N} requests ({ok} accepted) in {flood_s:.2} s: {recorded} records, {written} lines written, {suppressed} suppressed; report: {report}"
+            "{N} requests ({ok} accepted) in {flood_s:.2} s: {recorded} records, {written} lines written ({commands} of requests), {suppressed} suppressed; report: {report}"
         );
         assert!(suppressed > 0, "{report}");
         assert_eq!(written + suppressed, recorded, "{report}");

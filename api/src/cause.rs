@@ -140,6 +140,22 @@ pub enum Cause {
         /// The joints above it.
         joints: Vec<ThresholdAboveCeiling>,
     },
+    /// `expect-payload` while the payload is declared unknown already: a new declaration would
+    /// reopen the grasp window and forget the pin, so the active one stays as it is.
+    AlreadyDeclared {
+        /// The active declaration's number.
+        declaration: u32,
+        /// Whether its load is pinned (a change of it is a contact).
+        pinned: bool,
+    },
+    /// `expect-payload` after `max` declarations with no payload applied since: each opens a
+    /// grasp window in which a flange force passes for a load.
+    DeclarationsExhausted {
+        /// Declarations since a payload with mass was last applied.
+        declarations: u32,
+        /// The bound.
+        max: u32,
+    },
     /// Thresholds fitted offline for another setup than this service's (`collision-install`):
     /// the residual they bound was computed at another controller period or on another arm
     /// model, so they would not bound this service's residual.

@@ -209,3 +209,58 @@ proptest! {
         );
     }
 }
+
+/// One step of an adversary after the pin: declare again (with or without waiting), or let
+/// cycles pass.
+#[derive(Debug, Clone, Copy)]
+enum Step {
+    /// `expect-payload` sent straight to the loop (the service refuses it before; this is the
+    /// loop's own rule).
+    Declare,
+    /// Cycles pass.
+    Wait(usize),
+}
+
+fn step() -> impl Strategy<Value = Step> {
+    prop_oneof![Just(Step::Declare), (1usize..2000).prop_map(Step::Wait)]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 16, ..ProptestConfig::default() })]
+    /// Issue 34 item 1: `expect-payload` repeated every ~6.5 s hid a 30 N push on the flange for
+    /// ever. Whatever the sequence of declarations and waits after the first grasp window (the
+    /// mode's expiry pushed beyond the run): the load stays pinned and every flange force beyond
+    /// what it explains is a contact.
+    #[test]
+    fn repeated_declarations_never_reopen_the_grasp_window(
+        steps in prop::collection::vec(step(), 1..8),
+        force in flange_force(),
+    ) {
+        let mut rig = loaded_and_applied();
+        rig.timing.grasp_window_s = 1.0;
+        rig.timing.expire_s = 600.0;
+        rig.declare();
+        rig.run(1100);
+        let pinned = rig.processor.payload_tolerance().pinned().copied();
+        prop_assert!(pinned.is_some());
+        for s in steps {
+            match s {
+                Step::Declare => rig.send(CycleRequest::ExpectPayload {
+                    declaration: rig.declaration + 1,
+                    bounds: BOUNDS,
+                    timing: rig.timing,
+                }),
+                Step::Wait(n) => {
+                    rig.run(n);
+                }
+            }
+        }
+        rig.run(2);
+        prop_assert_eq!(rig.processor.payload_tolerance().pinned().copied(), pinned);
+        rig.link_force = Some(on_flange(force));
+        let torque = rig.contact_torque();
+        prop_assume!(torque.amax() > 1.2 * safety::DEFAULT_THRESHOLD_NM);
+        let events = rig.run(200);
+        prop_assert!(stopped_by_collision(&events), "{force:?}: {torque}: {events:?}");
+    }
+}

@@ -101,4 +101,14 @@ pub enum ConfigError {
         /// Expiry \[s\].
         expire_s: f64,
     },
+    /// A declaration of an unknown payload while one is active: it would reopen the grasp
+    /// window and forget the pin (a renewed declaration hid contacts for ever, issue 34), so it
+    /// is refused and the active one kept with its pin and expiry.
+    #[error(
+        "the payload is already declared unknown (declaration {active}): a new declaration would reopen the grasp window; the active one keeps its pin and expiry"
+    )]
+    AlreadyDeclared {
+        /// The active declaration's number.
+        active: u32,
+    },
 }

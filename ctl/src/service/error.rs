@@ -134,6 +134,20 @@ fn cause_lines(cause: &Cause) -> Vec<String> {
                 )
             })
             .collect(),
+        Cause::AlreadyDeclared {
+            declaration,
+            pinned,
+        } => vec![format!(
+            "cause: the payload is declared unknown already (declaration {declaration}, {}): a new declaration would reopen the grasp window; estimate and apply the payload, or end the mode first (`fri-ctl expect-payload --end`)",
+            if *pinned {
+                "its load pinned"
+            } else {
+                "in its grasp window"
+            }
+        )],
+        Cause::DeclarationsExhausted { declarations, max } => vec![format!(
+            "cause: {declarations} declarations of an unknown payload with no payload applied since (at most {max}: each opens a grasp window in which a flange force passes for a load); apply the payload (`fri-ctl estimate --apply` or `fri-ctl apply-payload`) before declaring again"
+        )],
         Cause::ThresholdsForAnotherSetup {
             field,
             thresholds,

@@ -31,7 +31,10 @@ explains across the poses is a contact too, and so is the payload's inertia beyo
 allowance derived from the motion limits while the arm moves. Without an estimate the mode \
 expires ([unknown_payload] expire_s after the declaration or the last sample, default 120 s): \
 the monitor detects against the applied payload again. The answer (and `status`) says until \
-when the grasp may last, what is pinned, and when the mode expires.
+when the grasp may last, what is pinned, and when the mode expires. A declaration while the \
+mode is active is refused (it would reopen the grasp window: the active one keeps its pin and \
+expiry), and after 3 declarations with no payload applied since, so is the next one until a \
+payload with mass is applied.
 
 The mode ends when a payload is applied (`estimate-payload --apply`, `apply-payload`, \
 `clear-payload`), without a gap, or with `--end` (the applied payload, or none, is the payload \

@@ -58,6 +58,9 @@ pub(crate) struct Persistent {
     pub(crate) unknown_payload: Option<super::workflow::unknown_payload_state::UnknownPayloadState>,
     /// Declarations of an unknown payload so far (numbers them).
     pub(crate) declarations: u32,
+    /// Declarations since a payload with mass was last applied (bounded by
+    /// `MAX_DECLARATIONS_WITHOUT_PAYLOAD`; not persisted, as the mode itself is not).
+    pub(crate) declarations_without_payload: u32,
     /// Who applied the payload in force (`None`: no payload).
     pub(crate) payload_origin: Option<fri_api::origin::Origin>,
 }
@@ -183,6 +186,7 @@ impl ServiceCore {
             stored_monitor: monitor,
             unknown_payload: None,
             declarations: 0,
+            declarations_without_payload: 0,
         };
         Self {
             config,

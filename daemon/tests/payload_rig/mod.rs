@@ -306,8 +306,12 @@ impl Rig {
         rig
     }
 
-    /// Declares the payload unknown, as `expect-payload` does.
+    /// Declares the payload unknown, as `expect-payload` does (which refuses while the loop's
+    /// mode is active: the loop would refuse it too, and the rig's numbers stay the loop's).
     pub fn declare(&mut self) {
+        if self.processor.payload_unknown() {
+            return;
+        }
         self.declaration += 1;
         self.samples.clear();
         self.hypothesis = None;

@@ -161,9 +161,11 @@ impl<const N: usize> PayloadTolerance<N> {
     }
 
     /// Declares the payload unknown at controller time `now_s` (declaration `id`, a fresh number
-    /// each time): the samples and the pin of an earlier declaration are forgotten; a plausible
-    /// load within `bounds` is tolerated until it is pinned (`timing`). Refuses invalid bounds or
-    /// timing (the mode is then unchanged).
+    /// each time): the samples and the pin of an earlier, ended declaration are forgotten; a
+    /// plausible load within `bounds` is tolerated until it is pinned (`timing`). Refuses invalid
+    /// bounds or timing, and any declaration while one is active
+    /// ([`ConfigError::AlreadyDeclared`]: the grasp window opens once per declaration, the pin
+    /// and the expiry stay); the mode is then unchanged.
     pub fn declare(
         &mut self,
         id: u32,
@@ -171,6 +173,9 @@ impl<const N: usize> PayloadTolerance<N> {
         timing: GraspTiming,
         now_s: f64,
     ) -> Result<(), ConfigError> {
+        if let Some(d) = self.declaration {
+            return Err(ConfigError::AlreadyDeclared { active: d.id });
+        }
         bounds.validate()?;
         timing.validate()?;
         self.declaration = Some(Declaration {

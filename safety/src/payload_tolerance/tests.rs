@@ -164,3 +164,37 @@ fn samples_repin_the_load_and_restart_the_expiry_and_the_mode_expires() {
     assert_eq!(b.tolerance.last_end(), Some((7, ModeEnd::Expired)));
     assert!((seen + b.y * payload(2.0)).amax() < 1e-9, "{seen}");
 }
+
+/// Issue 34 item 1: `expect-payload` repeated every 6.5 s hid a 30 N push for ever (each
+/// declaration reopened the grasp window and dropped the pin). A declaration while one is
+/// active is refused: the pin, the window's end and the expiry stay, and the push is seen.
+#[test]
+fn a_declaration_while_one_is_active_keeps_the_pin_and_the_expiry() {
+    let mut b = Bench::new();
+    let timing = GraspTiming {
+        grasp_window_s: 2.0,
+        settle_s: 0.5,
+        expire_s: 30.0,
+    };
+    b.tolerance.declare(1, TEST_BOUNDS, timing, 0.0).unwrap();
+    b.run(2.1, &payload(3.0), &V7::zeros());
+    let pinned = *b.tolerance.pinned().expect("pinned at the window's end");
+    let status = b.tolerance.status().unwrap();
+    for (k, id) in (2..6).enumerate() {
+        b.run(1.5, &payload(3.0), &V7::zeros());
+        assert_eq!(
+            b.tolerance.declare(id, TEST_BOUNDS, timing, b.now),
+            Err(ConfigError::AlreadyDeclared { active: 1 }),
+            "renewal {k}"
+        );
+        assert_eq!(b.tolerance.pinned(), Some(&pinned));
+        assert_eq!(b.tolerance.status(), Some(status));
+        // 30 N down on the flange is seen whole right after every attempt.
+        let (seen, _) = b.cycle(&(payload(3.0) + push_down(30.0)), &V7::zeros());
+        assert!(seen.amax() > 6.0, "renewal {k}: {seen}");
+    }
+    // Ended, a new declaration is taken (the service bounds how often: docs §8).
+    b.tolerance.end(ModeEnd::Ended);
+    b.tolerance.declare(9, TEST_BOUNDS, timing, b.now).unwrap();
+    assert_eq!(b.tolerance.declaration().map(|d| d.0), Some(9));
+}

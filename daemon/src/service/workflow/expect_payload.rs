@@ -15,6 +15,7 @@
 use std::time::Duration;
 
 use dynamics::Data;
+use fri_api::cause::Cause;
 use fri_api::origin::Origin;
 use fri_api::protocol::{ErrorCode, OperatorError};
 use fri_api::results::{Change, DeclaredBy, ExpectPayloadResult, UnknownPayload};
@@ -39,6 +40,12 @@ pub const UNEXPLAINED_SHARE: f64 = 1.0 / 3.0;
 /// Longest wait for a valid residual at the start of `estimate-payload` (the monitor's warm-up
 /// is 50 ms).
 const RESIDUAL_WAIT: Duration = Duration::from_millis(500);
+
+/// Declarations of an unknown payload allowed with no payload applied since (a payload with
+/// mass, by `apply-payload` or `estimate-payload --apply`). Each opens a grasp window in which a
+/// downward flange force passes for a load; `--end` and a new declaration would otherwise
+/// reopen it for ever (issue 34). A grasp, an estimate that is refused and one more try fit.
+pub const MAX_DECLARATIONS_WITHOUT_PAYLOAD: u32 = 3;
 
 /// Longest wait of `expect-payload` for the loop to take the declaration (it does in the next
 /// cycle while a controller sends), so that the answer says until when the grasp may last.
@@ -115,8 +122,10 @@ impl ServiceCore {
         })
     }
 
-    /// Starts (or restarts, forgetting earlier samples and the pin) the unknown-payload mode;
-    /// returns the declaration's number.
+    /// Starts the unknown-payload mode; returns the declaration's number. Refused while a
+    /// declaration is active (it keeps its grasp window, pin and expiry: the loop refuses it
+    /// too) and after [`MAX_DECLARATIONS_WITHOUT_PAYLOAD`] declarations with no payload applied
+    /// since.
     fn declare_unknown_payload(
         &self,
         bounds: FlangeLoadBounds,
@@ -124,10 +133,39 @@ impl ServiceCore {
         declared_by: DeclaredBy,
         origin: &Origin,
     ) -> Result<u32, OperatorError> {
+        // The loop's view first: a declaration it has ended (expired) no longer counts as active.
+        let active = self.unknown_payload_status();
         let declaration = self.persistent(|s| {
+            if let (Some(u), Some(status)) = (&s.unknown_payload, &active) {
+                return Err(err(
+                    ErrorCode::NotReady,
+                    format!(
+                        "the payload is declared unknown already (declaration {}): a new declaration would reopen the grasp window; estimate and apply the payload, or end the mode first",
+                        u.declaration
+                    ),
+                )
+                .with_cause(Cause::AlreadyDeclared {
+                    declaration: u.declaration,
+                    pinned: status.pinned.is_some(),
+                }));
+            }
+            if s.declarations_without_payload >= MAX_DECLARATIONS_WITHOUT_PAYLOAD {
+                return Err(err(
+                    ErrorCode::NotReady,
+                    format!(
+                        "{} declarations of an unknown payload with no payload applied since (at most {MAX_DECLARATIONS_WITHOUT_PAYLOAD}): apply the payload before declaring again",
+                        s.declarations_without_payload
+                    ),
+                )
+                .with_cause(Cause::DeclarationsExhausted {
+                    declarations: s.declarations_without_payload,
+                    max: MAX_DECLARATIONS_WITHOUT_PAYLOAD,
+                }));
+            }
+            s.declarations_without_payload += 1;
             s.declarations = s.declarations.wrapping_add(1);
-            s.declarations
-        });
+            Ok(s.declarations)
+        })?;
         self.send(CycleRequest::ExpectPayload {
             declaration,
             bounds,

@@ -66,6 +66,10 @@ impl ServiceCore {
         })?;
         // The loop ended the unknown-payload mode with this payload (same request).
         let was_unknown = self.persistent(|s| {
+            if p.is_some_and(|p| p.mass > 0.0) {
+                // A payload with mass is known: the next grasp may be declared again.
+                s.declarations_without_payload = 0;
+            }
             s.payload = p;
             s.payload_origin = p.map(|_| origin.clone());
             s.unknown_payload.take().is_some()

@@ -246,13 +246,21 @@ mod tests {
         let before = audit.with_bucket(|b| b.suppressed);
         assert!(before >= 4_800, "{before}");
         let disarmed = audit.record(&o, Change::Disarmed);
-        assert_eq!(disarmed.suppressed_before, before, "written, with the count");
+        assert_eq!(
+            disarmed.suppressed_before, before,
+            "written, with the count"
+        );
         for _ in 0..5_000 {
             audit.record(&o, command());
         }
         // Every change is written however empty the requests' bucket is.
         audit.with_bucket(|b| b.tokens = 0.0);
-        for change in [Change::Armed, Change::Disarmed, Change::Resumed, Change::Stopped] {
+        for change in [
+            Change::Armed,
+            Change::Disarmed,
+            Change::Resumed,
+            Change::Stopped,
+        ] {
             let suppressed = audit.with_bucket(|b| b.suppressed);
             assert_eq!(audit.record(&o, change).suppressed_before, suppressed);
             assert_eq!(audit.with_bucket(|b| b.suppressed), 0);

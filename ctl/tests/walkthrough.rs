@@ -184,24 +184,22 @@ async fn the_readme_walkthrough_with_the_simulator() {
     // Commands start once `watch` says from which cycle on it misses nothing (its first line),
     // as an operator would see it; before, the tare could be accepted before it subscribed.
     let watch_stdout = watch.stdout.take().unwrap();
-    let (first_tx, first_rx) = std::sync::mpsc::channel();
+    let (line_tx, line_rx) = std::sync::mpsc::channel::<String>();
     let reader = std::thread::spawn(move || {
         use std::io::BufRead;
-        let mut text = String::new();
         for line in std::io::BufReader::new(watch_stdout).lines() {
             let Ok(line) = line else { break };
-            if text.is_empty() {
-                let _ = first_tx.send(line.clone());
+            if line_tx.send(line).is_err() {
+                break;
             }
-            text.push_str(&line);
-            text.push('\n');
         }
-        text
     });
-    let first = tokio::task::spawn_blocking(move || first_rx.recv_timeout(Duration::from_secs(30)))
-        .await
-        .unwrap()
-        .expect("fri-ctl watch printed nothing");
+    let (first, line_rx) = tokio::task::spawn_blocking(move || {
+        (line_rx.recv_timeout(Duration::from_secs(30)), line_rx)
+    })
+    .await
+    .unwrap();
+    let first = first.expect("fri-ctl watch printed nothing");
     assert!(first.starts_with("watching"), "{first}");
     let mut printed: Vec<(String, String)> = Vec::new();
     // fri-ctl tare: unloaded, stored.
@@ -259,12 +257,27 @@ async fn the_readme_walkthrough_with_the_simulator() {
     let s = status(&socket).await;
     assert_eq!(s["stopped"], false, "{s:#}");
     // What `watch` printed meanwhile (it runs until it is interrupted; every line is written
-    // as it happens, so nothing is lost when it is killed).
-    tokio::time::sleep(Duration::from_millis(200)).await;
-    watch.kill().unwrap();
+    // as it happens): read until it has printed the release after the resume, the README's last
+    // line of it (30 s at most: a missing line fails below), then interrupt it. A fixed wait
+    // before the interrupt lost that line on a loaded host.
     let watched = tokio::task::spawn_blocking(move || {
+        let mut text = format!("{first}\n");
+        let deadline = std::time::Instant::now() + Duration::from_secs(30);
+        while let Some(left) = deadline.checked_duration_since(std::time::Instant::now()) {
+            let Ok(line) = line_rx.recv_timeout(left) else {
+                break;
+            };
+            text.push_str(&line);
+            text.push('\n');
+            if line.contains("arm released") && text.contains("`resume` accepted") {
+                break;
+            }
+        }
+        watch.kill().unwrap();
         watch.wait().unwrap();
-        reader.join().unwrap()
+        reader.join().unwrap();
+        text.extend(line_rx.try_iter().map(|l| l + "\n"));
+        text
     })
     .await
     .unwrap();

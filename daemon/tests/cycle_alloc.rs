@@ -49,7 +49,8 @@ fn service_cycle_is_allocation_free() {
 
 /// The same with the payload declared unknown: the plausible fit at the current pose during the
 /// grasp window and the pin at its end, then the refit of a sample set pinned (after it reached
-/// the loop), then a new declaration that expires; each change leaves the loop as an event.
+/// the loop), then its end and a new declaration that expires; each change leaves the loop as an
+/// event.
 #[test]
 fn service_cycle_with_the_payload_declared_unknown_is_allocation_free() {
     let mut config = SimulationConfig::default();
@@ -103,7 +104,9 @@ fn service_cycle_with_the_payload_declared_unknown_is_allocation_free() {
             assert!(kit.cycle());
             kit.drain();
         } else if kit.processor().payload_tolerance().pinned().is_some() {
-            // The last phase: declared again, expiring inside the counted cycles.
+            // The last phase: ended and declared again (a declaration while one is active is
+            // refused), expiring inside the counted cycles.
+            assert!(kit.send(CycleRequest::EndExpectPayload));
             assert!(kit.send(CycleRequest::ExpectPayload {
                 declaration: 2,
                 bounds,

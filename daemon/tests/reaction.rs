@@ -153,8 +153,9 @@ fn samples_no_flange_load_explains_across_the_poses_are_a_contact() {
     let events = rig.run(50);
     assert!(stopped_by_collision(&events), "{events:?}");
     assert!(rig.processor.is_holding());
-    // A hypothesis of an earlier declaration is refused: declaring again starts over.
-    rig.declare();
+    // A hypothesis of an earlier declaration is refused: ending the declaration and declaring
+    // again starts over (a declaration while one is active is refused and changes nothing).
+    rig.end_and_declare();
     rig.run(50);
     rig.send(CycleRequest::PayloadHypothesis(h));
     rig.send(CycleRequest::Resume { after_stops: 0 });

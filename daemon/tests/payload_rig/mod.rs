@@ -322,6 +322,20 @@ impl Rig {
         });
     }
 
+    /// Ends the declaration and declares again, in one cycle (`expect-payload --end`, then
+    /// `expect-payload`: the service allows it a bounded number of times).
+    pub fn end_and_declare(&mut self) {
+        self.send(CycleRequest::EndExpectPayload);
+        self.declaration += 1;
+        self.samples.clear();
+        self.hypothesis = None;
+        self.send(CycleRequest::ExpectPayload {
+            declaration: self.declaration,
+            bounds: BOUNDS,
+            timing: self.timing,
+        });
+    }
+
     /// The gripper takes the payload: its weight comes onto the flange linearly over
     /// `seconds` (0: at once).
     pub fn grasp_over(&mut self, seconds: f64) {

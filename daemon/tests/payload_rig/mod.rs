@@ -309,23 +309,20 @@ impl Rig {
     /// Declares the payload unknown, as `expect-payload` does (which refuses while the loop's
     /// mode is active: the loop would refuse it too, and the rig's numbers stay the loop's).
     pub fn declare(&mut self) {
-        if self.processor.payload_unknown() {
-            return;
+        if !self.processor.payload_unknown() {
+            self.send_declaration();
         }
-        self.declaration += 1;
-        self.samples.clear();
-        self.hypothesis = None;
-        self.send(CycleRequest::ExpectPayload {
-            declaration: self.declaration,
-            bounds: BOUNDS,
-            timing: self.timing,
-        });
     }
 
     /// Ends the declaration and declares again, in one cycle (`expect-payload --end`, then
     /// `expect-payload`: the service allows it a bounded number of times).
     pub fn end_and_declare(&mut self) {
         self.send(CycleRequest::EndExpectPayload);
+        self.send_declaration();
+    }
+
+    /// A new declaration's number and request; its samples start empty.
+    fn send_declaration(&mut self) {
         self.declaration += 1;
         self.samples.clear();
         self.hypothesis = None;

@@ -171,7 +171,10 @@ pub async fn run(
     };
     let (stop, input) = crate::ipc::spawn(config.ipc_names(), move |i| sink.handle(i))
         .map_err(BridgeError::Thread)?;
-    let operator = Operator::new(config.service.operator.socket.clone());
+    let operator = Operator::new(
+        config.service.operator.socket.clone(),
+        config.service.operator.stop_socket_path(),
+    );
     let mut tasks = tokio::task::JoinSet::new();
     match node.spinner() {
         Ok(spinner) => {

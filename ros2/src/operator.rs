@@ -1,7 +1,10 @@
 //! Commands to the service over its operator socket (`fri_api::client`, typed results), one
-//! connection per command so a restarted service is simply reached again.
+//! connection per command so a restarted service is simply reached again; `stop` over the
+//! service's stop socket, which no other client can occupy (docs/operator-protocol.md "Stop
+//! path").
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 use fri_api::client::Client;
 use fri_api::protocol::{CollisionAction, Command, Ros2Caller};
@@ -55,16 +58,53 @@ impl Trigger {
     }
 }
 
-/// The service's operator socket.
+/// How long a ROS 2 `stop` keeps connecting to the stop socket again while it is flooded
+/// (`busy`, a refused connection), as `fri-ctl stop` does.
+const STOP_RETRY_FOR: Duration = Duration::from_secs(3);
+
+/// Why a command did not give its result.
+enum CallError {
+    /// No connection to the socket (absent, refused, a full backlog).
+    Connect(String),
+    /// The service answered with an error.
+    Service(fri_api::protocol::OperatorError),
+    /// The connection or the protocol failed after connecting.
+    Protocol(String),
+}
+
+impl CallError {
+    /// Whether a `stop` tries again: the stop socket was occupied, not the request refused.
+    fn flooded(&self) -> bool {
+        match self {
+            Self::Connect(_) => true,
+            Self::Service(e) => e.code == fri_api::protocol::ErrorCode::Busy,
+            Self::Protocol(_) => false,
+        }
+    }
+
+    fn text(self) -> String {
+        match self {
+            Self::Connect(e) | Self::Protocol(e) => e,
+            Self::Service(e) => format!("{}: {}", code_name(e.code), e.message),
+        }
+    }
+}
+
+/// The service's operator and stop sockets.
 #[derive(Debug, Clone)]
 pub struct Operator {
     socket: PathBuf,
+    stop_socket: PathBuf,
 }
 
 impl Operator {
-    /// Commands go to `socket`.
-    pub fn new(socket: PathBuf) -> Self {
-        Self { socket }
+    /// Commands go to `socket`, `stop` to `stop_socket` (`operator.stop_socket` of the
+    /// service's configuration).
+    pub fn new(socket: PathBuf, stop_socket: PathBuf) -> Self {
+        Self {
+            socket,
+            stop_socket,
+        }
     }
 
     /// Sends `command` on behalf of `caller` (`None`: the bridge's own request) and returns its
@@ -74,22 +114,36 @@ impl Operator {
         &self,
         command: Command,
         caller: Option<Ros2Caller>,
-        mut on_event: impl FnMut(&Event),
+        on_event: impl FnMut(&Event),
     ) -> Result<R, String> {
-        let mut client = Client::connect(&self.socket)
+        call_on(&self.socket, command, caller, on_event)
             .await
-            .map_err(|e| format!("service at {}: {e}", self.socket.display()))?;
-        match client
-            .call_typed_for::<R>(caller, command, |e| {
-                if let Ok(e) = e {
-                    on_event(&e);
+            .map_err(CallError::text)
+    }
+
+    /// `stop` for `caller` over the stop socket, connecting again for [`STOP_RETRY_FOR`] while
+    /// it is flooded; over the operator socket only when there is no stop socket (a service
+    /// older than it), with a warning.
+    async fn stop(&self, caller: Option<Ros2Caller>) -> Result<StopResult, String> {
+        let socket = match std::fs::symlink_metadata(&self.stop_socket) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                tracing::warn!(
+                    stop_socket = %self.stop_socket.display(),
+                    socket = %self.socket.display(),
+                    "no stop socket (a service older than it): ROS 2 `stop` goes over the operator socket"
+                );
+                &self.socket
+            }
+            _ => &self.stop_socket,
+        };
+        let deadline = Instant::now() + STOP_RETRY_FOR;
+        loop {
+            match call_on(socket, Command::Stop, caller.clone(), |_| {}).await {
+                Err(e) if e.flooded() && Instant::now() < deadline => {
+                    tokio::time::sleep(Duration::from_millis(20)).await;
                 }
-            })
-            .await
-        {
-            Ok(Ok(r)) => Ok(r),
-            Ok(Err(e)) => Err(format!("{}: {}", code_name(e.code), e.message)),
-            Err(e) => Err(e.to_string()),
+                r => return r.map_err(CallError::text),
+            }
         }
     }
 
@@ -139,10 +193,7 @@ impl Operator {
                         .await,
                 )
             }
-            Trigger::Stop => respond(
-                self.call::<StopResult>(Command::Stop, caller, on_event)
-                    .await,
-            ),
+            Trigger::Stop => respond(self.stop(caller).await),
             Trigger::Resume => {
                 let r = self
                     .call::<ResumeResult>(Command::Resume, caller, on_event)
@@ -206,5 +257,29 @@ fn code_name(code: fri_api::protocol::ErrorCode) -> String {
     match serde_json::to_value(code) {
         Ok(serde_json::Value::String(s)) => s,
         _ => format!("{code:?}"),
+    }
+}
+
+/// Sends `command` for `caller` on `socket`: one connection, the typed result or why not.
+async fn call_on<R: DeserializeOwned>(
+    socket: &Path,
+    command: Command,
+    caller: Option<Ros2Caller>,
+    mut on_event: impl FnMut(&Event),
+) -> Result<R, CallError> {
+    let mut client = Client::connect(socket)
+        .await
+        .map_err(|e| CallError::Connect(format!("service at {}: {e}", socket.display())))?;
+    match client
+        .call_typed_for::<R>(caller, command, |e| {
+            if let Ok(e) = e {
+                on_event(&e);
+            }
+        })
+        .await
+    {
+        Ok(Ok(r)) => Ok(r),
+        Ok(Err(e)) => Err(CallError::Service(e)),
+        Err(e) => Err(CallError::Protocol(e.to_string())),
     }
 }

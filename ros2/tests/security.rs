@@ -41,10 +41,7 @@ async fn only_a_participant_of_the_keystore_commands_the_arm() {
     let service = fri_service::testkit::InProcess::start(config.clone())
         .await
         .unwrap();
-    let mut sim = mock_robot::SimulationConfig::default();
-    sim.payload.attached_at_start = false;
-    let robot = common::robot(sim, service.fri, None);
-    let mut client = common::wait_connected(&service).await;
+    let (robot, mut client) = common::unloaded_robot(&service).await;
     let audit = common::AuditWatch::start(service.client().await.unwrap()).await;
     let domain = 155;
     let bridge = common::Bridge::start_with(

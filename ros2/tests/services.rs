@@ -46,12 +46,9 @@ async fn stop_resume_arm_and_apply_payload_reach_the_service() {
     let service = fri_service::testkit::InProcess::start(config.clone())
         .await
         .unwrap();
-    // No payload on the arm: an undeclared one is a contact to the armed monitor, which would
-    // hold the arm whatever the services do (the resume is then rightly refused).
-    let mut sim = mock_robot::SimulationConfig::default();
-    sim.payload.attached_at_start = false;
-    let robot = common::robot(sim, service.fri, None);
-    let mut client = common::wait_connected(&service).await;
+    // No payload on the arm: the armed monitor would hold it whatever the services do (the
+    // resume is then rightly refused).
+    let (robot, mut client) = common::unloaded_robot(&service).await;
     let domain = common::domain(1);
     let bridge = common::Bridge::start_with(
         config,

@@ -25,10 +25,7 @@ async fn a_ros2_stop_goes_over_the_stop_socket() {
     let service = fri_service::testkit::InProcess::start(config)
         .await
         .unwrap();
-    let mut sim = mock_robot::SimulationConfig::default();
-    sim.payload.attached_at_start = false;
-    let robot = common::robot(sim, service.fri, None);
-    let mut client = common::wait_connected(&service).await;
+    let (robot, mut client) = common::unloaded_robot(&service).await;
     // An operator socket nobody serves: only the stop socket can take the stop.
     let nobody = dir.path().join("nobody.sock");
     let operator = Operator::new(nobody.clone(), stop_socket);

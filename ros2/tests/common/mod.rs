@@ -137,6 +137,15 @@ impl Bridge {
     }
 }
 
+/// The simulated arm in real time, with no payload on it (an undeclared one is a contact to an
+/// armed monitor), once the service hears it: the robot and a client of the service.
+pub async fn unloaded_robot(service: &InProcess) -> (MockRobotHandle, Client) {
+    let mut sim = SimulationConfig::default();
+    sim.payload.attached_at_start = false;
+    let robot = robot(sim, service.fri, None);
+    (robot, wait_connected(service).await)
+}
+
 /// Waits until the service sees the controller.
 pub async fn wait_connected(service: &InProcess) -> Client {
     let mut c = service.client().await.unwrap();

@@ -32,6 +32,15 @@ fn run_demo(extra: &[&str], dir: &std::path::Path) -> serde_json::Value {
     serde_json::from_str(stdout.lines().last().unwrap()).unwrap()
 }
 
+/// A report's list of times, s.
+fn seconds(list: &serde_json::Value) -> Vec<f64> {
+    list.as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect()
+}
+
 #[test]
 fn demo_in_lockstep_reports_the_estimate_and_the_three_contacts() {
     let dir = tempfile::tempdir().unwrap();
@@ -49,12 +58,7 @@ fn demo_in_lockstep_reports_the_estimate_and_the_three_contacts() {
     assert!(est["mass_std"].as_f64().unwrap() > 0.0);
     // The compensated residual detects each contact within 0.2 s and raises no false alarm;
     // without the payload the residual sits above the threshold (the paper's Fig. 6 problem).
-    let det: Vec<f64> = report["detections_compensated"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_f64().unwrap())
-        .collect();
+    let det = seconds(&report["detections_compensated"]);
     assert_eq!(det.len(), 3, "{report}");
     for (d, c) in det.iter().zip([1.0, 8.0, 17.0]) {
         assert!(*d >= c && *d < c + 0.2, "{report}");
@@ -166,12 +170,7 @@ fn demo_on_the_real_arm_profile_keeps_an_honest_sigma_and_detects_the_contacts()
     // correlated over about a second) cannot be averaged away over a few seconds per pose.
     assert!(sigma > 0.005, "{report}");
     assert!((mass - truth).abs() < 3.0 * sigma, "{report}");
-    let det: Vec<f64> = report["detections_compensated"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_f64().unwrap())
-        .collect();
+    let det = seconds(&report["detections_compensated"]);
     for c in [1.0, 8.0, 17.0] {
         assert!(det.iter().any(|d| *d >= c && *d < c + 0.2), "{report}");
     }

@@ -20,6 +20,20 @@ fn args(list: &[&str]) -> Vec<String> {
     list.iter().map(|s| (*s).to_owned()).collect()
 }
 
+/// A rogue Cyclone peer calling once in `domain` (waits 8 s for a match, quiet for 3 s after).
+fn quiet_rogue(call: &[&str], domain: &str) -> common::JsonPeer {
+    let mut a = args(call);
+    a.extend(args(&[
+        "--domain",
+        domain,
+        "--wait-match",
+        "8",
+        "--quiet",
+        "3",
+    ]));
+    common::JsonPeer::start("rogue_peer.py", &a)
+}
+
 /// The service with the mock robot (no payload: the armed monitor leaves the arm free).
 async fn service_with_robot(
     dir: &std::path::Path,
@@ -89,50 +103,12 @@ async fn a_default_bridge_serves_no_command_to_a_rogue_participant() {
     let d = domain.to_string();
     // The attacks: stop, disarm, a tare (it moves the arm), apply a wrong payload. No
     // reader exists to match.
-    let stop = common::JsonPeer::start(
-        "rogue_peer.py",
-        &args(&[
-            "trigger",
-            "--service",
-            "stop",
-            "--domain",
-            &d,
-            "--wait-match",
-            "8",
-            "--quiet",
-            "3",
-        ]),
+    let stop = quiet_rogue(&["trigger", "--service", "stop"], &d);
+    let disarm = quiet_rogue(
+        &["setbool", "--service", "collision_arm", "--data", "false"],
+        &d,
     );
-    let disarm = common::JsonPeer::start(
-        "rogue_peer.py",
-        &args(&[
-            "setbool",
-            "--service",
-            "collision_arm",
-            "--data",
-            "false",
-            "--domain",
-            &d,
-            "--wait-match",
-            "8",
-            "--quiet",
-            "3",
-        ]),
-    );
-    let tare = common::JsonPeer::start(
-        "rogue_peer.py",
-        &args(&[
-            "trigger",
-            "--service",
-            "tare",
-            "--domain",
-            &d,
-            "--wait-match",
-            "8",
-            "--quiet",
-            "3",
-        ]),
-    );
+    let tare = quiet_rogue(&["trigger", "--service", "tare"], &d);
     let payload = common::JsonPeer::start(
         "rogue_peer.py",
         &args(&[

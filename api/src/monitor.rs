@@ -9,6 +9,7 @@ use safety::{
 };
 
 use crate::bounds;
+use crate::results::JointFit;
 use crate::schedule::ThresholdSchedule;
 
 type V7 = SVector<f64, 7>;
@@ -31,7 +32,7 @@ pub struct MonitorSetup<'a> {
 /// The service's collision monitor on `model` (the observer's model: nominal, or an identified
 /// arm's corrected one) subtracting `joint_terms` (an identified arm's offset and friction) at
 /// its own velocity, with model gravity, the LWR's link surfaces for the contact fit, and a
-/// calibrated schedule capped at the service's ceiling (the thresholds' upper bound). Matched
+/// calibrated schedule capped at its own cap, at most the thresholds' upper bound. Matched
 /// torque filtering starts off: the service's cycle switches it on where the torque steps
 /// (collision-detection.md §3), which a recorded log does not show.
 pub fn build_monitor(
@@ -54,10 +55,49 @@ pub fn build_monitor(
             payload_dynamics: V7::from(s.payload_dynamics),
             inertial: V7::from(s.inertial),
             gravity: V7::from(s.gravity),
-            ceiling_nm: V7::from_fn(|j, _| bounds::threshold(j).max),
+            ceiling_nm: V7::from_fn(|j, _| s.ceiling[j].min(bounds::threshold(j).max)),
         };
         mc.threshold_to_noise = V7::from(s.scale);
     }
     mc.reaction = setup.reaction;
     CollisionMonitor::new(model, mc)
+}
+
+/// A calibration's schedule as the service stores and installs it.
+pub fn schedule_of(fit: &safety::calibration::Calibration<7>) -> ThresholdSchedule {
+    let array = |v: &V7| -> [f64; 7] { std::array::from_fn(|j| v[j]) };
+    ThresholdSchedule {
+        thresholds: array(&fit.thresholds_nm),
+        speed: array(&fit.velocity_coefficients),
+        velocity_noise: array(&fit.schedule.velocity_noise),
+        payload_dynamics: array(&fit.schedule.payload_dynamics),
+        inertial: array(&fit.schedule.inertial),
+        gravity: array(&fit.schedule.gravity),
+        scale: array(&fit.scale),
+        ceiling: array(&fit.schedule.ceiling_nm),
+    }
+}
+
+/// A calibration's per-joint report as `collision calibrate` and the thresholds file give it.
+pub fn joint_fits(fit: &safety::calibration::Calibration<7>) -> Vec<JointFit> {
+    fit.joints
+        .iter()
+        .map(|j| JointFit {
+            threshold_at_rest: j.threshold_at_rest_nm,
+            threshold_median: j.threshold_median_nm,
+            threshold_max: j.threshold_max_nm,
+            envelope: j.envelope,
+            model: j.tail.name().to_owned(),
+            shape_interval: j.shape_interval,
+            scale: j.scale,
+            scale_point: j.scale_point,
+            scale_std: j.scale_std,
+            scale_interval: j.scale_interval,
+            peak: j.peak_nm,
+            exceedances: j.exceedances,
+            cap: Some(j.cap.nm),
+            cap_fitted: j.cap.fitted_nm.is_finite().then_some(j.cap.fitted_nm),
+            cap_source: Some(j.cap.source.name().to_owned()),
+        })
+        .collect()
 }

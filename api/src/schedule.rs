@@ -8,8 +8,9 @@ use crate::bounds::{self, OutOfRange};
 
 /// Thresholds scheduled by the motion (`docs/collision-detection.md` §2): on joint j,
 /// θ_j = min(thresholds_j + speed_j·|q̇_j| + velocity_noise_j·φ_noise,j plus
-/// payload_dynamics_j·|τ_L,j| + inertial_j·|(M q̈)_j| + gravity_j·|g_L,j(q)|, a quarter of the
-/// torque limit).
+/// payload_dynamics_j·|τ_L,j| + inertial_j·|(M q̈)_j| + gravity_j·|g_L,j(q)|, ceiling_j).
+/// the ceiling being the calibration's constant cap (`safety::calibration::cap`), at most a
+/// quarter of the torque limit.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ThresholdSchedule {
     /// θ0 at rest, Nm.
@@ -27,6 +28,15 @@ pub struct ThresholdSchedule {
     /// Extreme-value scale per joint: threshold over the residual's envelope (weights the
     /// contact fit).
     pub scale: [f64; 7],
+    /// Largest scheduled threshold per joint, Nm: the calibration's constant cap (absent in a
+    /// file written before caps: a quarter of the torque limit).
+    #[serde(default = "quarter_of_the_torque_limits")]
+    pub ceiling: [f64; 7],
+}
+
+/// The thresholds' largest value per joint, Nm (the ceiling of a schedule without a cap).
+pub fn quarter_of_the_torque_limits() -> [f64; 7] {
+    std::array::from_fn(|j| bounds::threshold(j).max)
 }
 
 /// What a calibration was fitted on.
@@ -51,8 +61,9 @@ pub struct CalibrationInfo {
 }
 
 impl ThresholdSchedule {
-    /// Checks every field against the service's ranges: θ0 within the thresholds' range of its
-    /// joint, the coefficients finite and non-negative, the scale positive. The error names the
+    /// Checks every field against the service's ranges: θ0 and the ceiling within the
+    /// thresholds' range of its joint, the coefficients finite and non-negative, the scale
+    /// positive. The error names the
     /// field and its joint (`schedule.speed[2] (joint 3)`).
     pub fn check(&self) -> Result<(), OutOfRange> {
         for j in 0..7 {
@@ -73,6 +84,10 @@ impl ThresholdSchedule {
             bounds::SCHEDULE_SCALE.check(
                 &format!("schedule.scale[{j}] (joint {})", j + 1),
                 self.scale[j],
+            )?;
+            bounds::threshold(j).check(
+                &format!("schedule.ceiling[{j}] (joint {})", j + 1),
+                self.ceiling[j],
             )?;
         }
         Ok(())

@@ -135,30 +135,88 @@ fn heavy(fit: &serde_json::Value) -> Vec<usize> {
         .collect()
 }
 
-/// The real recordings were filtered without time shift (their README): their first and last
-/// half second carry the filter's transient. Calibrated on all of run 1, joint 4 reaches the
-/// ceiling (its block maxima from the log's last second; heavy-tailed there as J2, J5 and J6
-/// are); with 0.5 s dropped at each end no joint does: every median threshold is below the
-/// paper's 6 Nm, joint 5's heavy tail (its reversals, the test below) is reported and held at
-/// the light-tail level instead of the ~2000× envelope a GEV extrapolated before (25 Nm, no
-/// detection), and run 2 without its edges is never crossed; played whole, it is crossed only
-/// inside its edges.
+/// `offline calibrate-thresholds` on `logs` with the identified `arm` (budget 0.1/h), `edge`
+/// seconds dropped at each end, written to `out`; its JSON report and its text report.
+fn calibrate(logs: &[&str], arm: &str, out: &str, edge: &str) -> (serde_json::Value, String) {
+    let mut args = vec!["calibrate-thresholds"];
+    let paths: Vec<String> = logs.iter().map(|l| run(l)).collect();
+    for p in &paths {
+        args.extend(["--log", p.as_str()]);
+    }
+    args.extend(["--calibration", arm, "--edge-s", edge, "--out", out]);
+    let text = fri_ctl(&args);
+    assert!(text.status.success(), "{text:?}");
+    args.push("--json");
+    (
+        ok_json(&args),
+        String::from_utf8_lossy(&text.stdout).into_owned(),
+    )
+}
+
+/// Issue 33's bar for the thresholds: calibrated on run 1, and on runs 1 + 2 (as separate
+/// segments), whole or without the recordings' filter edges, every joint's threshold at rest
+/// and over the whole schedule is at most the paper's constant 6 Nm (the scheduled envelope
+/// is capped at the constant the logs support — or, where they support none below 6 Nm, at
+/// the stated 6 Nm, said in a warning: J5, whose heavy-tailed maxima sit at its velocity
+/// reversals, the test below), none at the service's ceiling, its own recording never
+/// crossed, the minimum detectable force on every link at or below the constant's; and run 2,
+/// which the run-1 fits never saw, is never crossed.
 #[test]
-fn without_the_recordings_filter_edges_no_joint_calibrates_at_the_ceiling_and_run_2_holds() {
+fn calibrated_on_run_1_or_on_runs_1_and_2_every_threshold_is_at_most_6_nm_and_run_2_holds() {
     let dir = Dir::new("edges");
     let (arm, thresholds) = (dir.file("arm.toml"), dir.file("thresholds.json"));
     let _ = identify("flobaroid-run1.csv", &arm);
-    let calibrate = |edge: &str| calibrate_run_1(&arm, &thresholds, edge);
-    let whole = calibrate("0");
-    assert!(capped(&whole).contains(&4), "{whole}");
-    assert!(heavy(&whole).contains(&4), "{whole}");
-    let fit = calibrate("0.5");
-    assert_eq!(capped(&fit), Vec::<usize>::new(), "{fit}");
-    assert_eq!(heavy(&fit), vec![5], "{fit}");
-    for j in 0..7 {
-        let median = fit["joints"][j]["threshold_median"].as_f64().unwrap();
-        assert!(median < 6.0, "J{}: median θ {median} Nm: {fit}", j + 1);
+    let both = ["flobaroid-run1.csv", "flobaroid-run2.csv"];
+    for (logs, edge) in [
+        (&both[..1], "0"),
+        (&both[..], "0"),
+        (&both[..], "0.5"),
+        (&both[..1], "0.5"),
+    ] {
+        let (fit, text) = calibrate(logs, &arm, &thresholds, edge);
+        let case = format!("{logs:?}, edge {edge} s");
+        assert_eq!(capped(&fit), Vec::<usize>::new(), "{case}: {fit}");
+        for j in 0..7 {
+            let x = &fit["joints"][j];
+            for field in [
+                "threshold_at_rest",
+                "threshold_median",
+                "threshold_max",
+                "cap",
+            ] {
+                let v = x[field].as_f64().unwrap();
+                assert!(v <= 6.0 + 1e-9, "{case}: J{} {field} {v} Nm", j + 1);
+            }
+            assert_eq!(x["exceedances"], 0, "{case}: J{}: {x}", j + 1);
+            let ceiling = fit["schedule"]["ceiling"][j].as_f64().unwrap();
+            assert_eq!(ceiling, x["cap"].as_f64().unwrap(), "{case}");
+            if x["cap_source"] == "fallback" {
+                assert!(
+                    text.contains("WARNING: the logs support no constant"),
+                    "{text}"
+                );
+                assert!(text.contains(&format!("J{} (", j + 1)), "{case}: {text}");
+            }
+        }
+        for key in ["min_force_at_rest", "min_force_median"] {
+            for l in 0..7 {
+                let at = fit[key][l]["median"].as_f64().unwrap();
+                let constant = fit["min_force_fallback"][l]["median"].as_f64().unwrap();
+                assert!(
+                    at <= constant,
+                    "{case}: L{} {key} {at} N > {constant} N",
+                    l + 1
+                );
+            }
+        }
+        // the reversals' heavy tail is reported, and held at the stated constant
+        assert!(heavy(&fit).contains(&5), "{case}: {fit}");
+        assert_eq!(fit["joints"][4]["cap_source"], "fallback", "{case}");
+        if logs.len() == 1 {
+            assert_never_crossed(&monitor_run_2(&arm, &thresholds, edge));
+        }
     }
+    // the last fit (run 1 without its edges) is in `thresholds`
     let monitor = |edge: &str| monitor_run_2(&arm, &thresholds, edge);
     let log = monitor("0.5");
     assert_never_crossed(&log);

@@ -26,6 +26,7 @@ fn schedule() -> ThresholdSchedule {
         inertial: [0.1, 0.2, 0.1, 0.1, 0.0, 0.0, 0.0],
         gravity: [0.0, 0.01, 0.0, 0.01, 0.0, 0.0, 0.0],
         scale: [12.9, 8.0, 12.7, 9.0, 7.0, 5.0, 6.6],
+        ceiling: [6.0, 6.0, 4.5, 6.0, 6.0, 6.0, 3.2],
     }
 }
 
@@ -92,6 +93,21 @@ async fn installed_thresholds_carry_their_schedule_and_gains_are_audited_and_sur
             && d["origin"]["kind"] == "operator"
     })
     .await;
+    // A file written before caps (no `ceiling`) installs, capped at the service's ceiling.
+    let mut old = serde_json::to_value(install()).unwrap();
+    old["schedule"].as_object_mut().unwrap().remove("ceiling");
+    let m: CollisionResult = serde_json::from_value(
+        call(&mut c, serde_json::from_value(old).unwrap())
+            .await
+            .unwrap(),
+    )
+    .unwrap();
+    let ceiling = m.schedule.unwrap().ceiling;
+    assert_eq!(ceiling, fri_api::schedule::quarter_of_the_torque_limits());
+    assert_eq!(ceiling[0], 44.0, "{ceiling:?}");
+    let m: CollisionResult =
+        serde_json::from_value(call(&mut c, install()).await.unwrap()).unwrap();
+    assert_eq!(m.schedule, Some(schedule()));
     service.stop().await.unwrap();
 
     // The next start restores the schedule, the gains and where they came from.
@@ -155,6 +171,19 @@ async fn thresholds_for_another_setup_or_out_of_range_are_refused_and_nothing_ch
         .await,
     );
     assert!(e.message.contains("schedule.speed[2]"), "{e:?}");
+    // A cap beyond the wrist's quarter of its torque limit (9.5 Nm): detection off there.
+    let e = refused(
+        call(
+            &mut c,
+            with("schedule", {
+                let mut s = serde_json::to_value(schedule()).unwrap();
+                s["ceiling"][6] = json!(30.0);
+                s
+            }),
+        )
+        .await,
+    );
+    assert!(e.message.contains("schedule.ceiling[6]"), "{e:?}");
     let e = refused(
         call(
             &mut c,

@@ -37,6 +37,18 @@ pub struct JointFit {
     pub peak: f64,
     /// 10 ms windows of the recording over their scheduled threshold (in-sample check).
     pub exceedances: usize,
+    /// The schedule's constant cap, Nm: the scheduled threshold never exceeds it (absent: a fit
+    /// from before caps).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cap: Option<f64>,
+    /// The constant the recording supports for the budget, Nm (absent: its block maxima are
+    /// heavy-tailed, or a fit from before caps).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cap_fitted: Option<f64>,
+    /// `fitted` (the cap is that constant) or `fallback` (the stated constant: the recording
+    /// supports none that small, so the budget is not met where the cap binds).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cap_source: Option<String>,
 }
 
 /// Minimum detectable force on one link, N.

@@ -314,6 +314,11 @@ pub struct CalibrateThresholdsArgs {
     /// Controller period the log is played at, s (the FRI cycle).
     #[arg(long, default_value_t = 0.001)]
     pub period_s: f64,
+    /// The stated constant, Nm (one or 7; default the paper's 6): every scheduled threshold is
+    /// capped at the constant the logs support for the budget, or at this one where they
+    /// support none that small (reported as `fallback`).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub fallback: Option<Vec<f64>>,
     /// Print one JSON object instead of the report.
     #[arg(long)]
     pub json: bool,

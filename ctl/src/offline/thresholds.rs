@@ -49,6 +49,14 @@ pub struct ThresholdsFile {
     pub min_force_at_rest: [LinkForce; 7],
     /// Minimum detectable force per link at the recording's median scheduled thresholds, N.
     pub min_force_median: [LinkForce; 7],
+    /// The stated constant per joint, Nm (the cap where the logs support none that small;
+    /// absent: a file from before caps).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fallback: Option<[f64; 7]>,
+    /// Minimum detectable force per link at the stated constant, N: what the calibration is
+    /// compared with (absent: a file from before caps).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_force_fallback: Option<[LinkForce; 7]>,
 }
 
 impl ThresholdsFile {

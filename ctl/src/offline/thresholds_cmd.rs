@@ -9,9 +9,9 @@ use std::path::Path;
 use anyhow::bail;
 use dynamics::lwr4;
 use fri_api::bounds;
-use fri_api::results::{CalibrationInfo, JointFit, ThresholdSchedule};
+use fri_api::results::CalibrationInfo;
 use nalgebra::SVector;
-use safety::calibration::{Calibration, EnvelopeRecorder, FitOptions};
+use safety::calibration::{EnvelopeRecorder, FitOptions};
 
 use super::args::CalibrateThresholdsArgs;
 use super::monitor_run::{Setup, arm_model, build, forces, identified, per_joint, played, run};
@@ -19,40 +19,6 @@ use super::report::{force_rows, table_row};
 use super::thresholds::{THRESHOLDS_FORMAT, THRESHOLDS_KIND, ThresholdsFile};
 
 type V7 = SVector<f64, 7>;
-
-/// The fit as the service reports it (`collision calibrate`'s result types).
-fn schedule_of(fit: &Calibration<7>) -> ThresholdSchedule {
-    let array = |v: &V7| -> [f64; 7] { std::array::from_fn(|j| v[j]) };
-    ThresholdSchedule {
-        thresholds: array(&fit.thresholds_nm),
-        speed: array(&fit.velocity_coefficients),
-        velocity_noise: array(&fit.schedule.velocity_noise),
-        payload_dynamics: array(&fit.schedule.payload_dynamics),
-        inertial: array(&fit.schedule.inertial),
-        gravity: array(&fit.schedule.gravity),
-        scale: array(&fit.scale),
-    }
-}
-
-fn joint_fits(fit: &Calibration<7>) -> Vec<JointFit> {
-    fit.joints
-        .iter()
-        .map(|j| JointFit {
-            threshold_at_rest: j.threshold_at_rest_nm,
-            threshold_median: j.threshold_median_nm,
-            threshold_max: j.threshold_max_nm,
-            envelope: j.envelope,
-            model: j.tail.name().to_owned(),
-            shape_interval: j.shape_interval,
-            scale: j.scale,
-            scale_point: j.scale_point,
-            scale_std: j.scale_std,
-            scale_interval: j.scale_interval,
-            peak: j.peak_nm,
-            exceedances: j.exceedances,
-        })
-        .collect()
-}
 
 /// `offline calibrate-thresholds`.
 pub fn calibrate_thresholds(
@@ -68,6 +34,10 @@ pub fn calibrate_thresholds(
     };
     let in_force = match &a.thresholds {
         Some(t) => per_joint("thresholds", t, bounds::threshold)?,
+        None => V7::repeat(safety::DEFAULT_THRESHOLD_NM),
+    };
+    let fallback = match &a.fallback {
+        Some(f) => per_joint("fallback", f, bounds::threshold)?,
         None => V7::repeat(safety::DEFAULT_THRESHOLD_NM),
     };
     let setup = Setup {
@@ -94,6 +64,7 @@ pub fn calibrate_thresholds(
     options.budget_per_hour = a.budget;
     options.floor_nm = V7::repeat(bounds::MIN_THRESHOLD_NM);
     options.ceiling_nm = V7::from_fn(|j, _| bounds::threshold(j).max);
+    options.fallback_nm = fallback;
     let fit = recorder
         .fit(&options)
         .map_err(|e| anyhow::anyhow!("calibration failed: {e}"))?;
@@ -106,7 +77,7 @@ pub fn calibrate_thresholds(
         calibration: a.calibration.as_ref().map(|p| p.display().to_string()),
         arm_offset: arm_offset(arm.as_ref())?,
         logs: logs.iter().map(|(n, _)| n.clone()).collect(),
-        schedule: schedule_of(&fit),
+        schedule: fri_api::monitor::schedule_of(&fit),
         recording: CalibrationInfo {
             budget_per_hour: fit.budget_per_hour,
             duration_s: fit.duration_s,
@@ -116,9 +87,11 @@ pub fn calibrate_thresholds(
             max_acceleration: std::array::from_fn(|j| fit.joints[j].max_acceleration),
             installed_from: None,
         },
-        joints: joint_fits(&fit),
+        joints: fri_api::monitor::joint_fits(&fit),
         min_force_at_rest: forces(&nominal, &fit.thresholds_nm),
         min_force_median: forces(&nominal, &fit.median_thresholds_nm),
+        fallback: Some(std::array::from_fn(|j| fallback[j])),
+        min_force_fallback: Some(forces(&nominal, &fallback)),
     };
     file.write(&a.out)?;
     if a.json {
@@ -194,6 +167,20 @@ fn thresholds_report(f: &ThresholdsFile, path: &Path, edge_s: f64) -> String {
         3,
     );
     table_row(&mut s, "θ max", "Nm", j.iter().map(|x| x.threshold_max), 3);
+    table_row(
+        &mut s,
+        "θ cap",
+        "Nm",
+        j.iter().map(|x| x.cap.unwrap_or(f64::NAN)),
+        3,
+    );
+    table_row(
+        &mut s,
+        "constant fitted",
+        "Nm",
+        j.iter().map(|x| x.cap_fitted.unwrap_or(f64::INFINITY)),
+        3,
+    );
     table_row(&mut s, "peak |r|", "Nm", j.iter().map(|x| x.peak), 3);
     table_row(
         &mut s,
@@ -231,12 +218,41 @@ fn thresholds_report(f: &ThresholdsFile, path: &Path, edge_s: f64) -> String {
     let _ = writeln!(s, "  {:<22} {:<5}{}", "", "", links.join(""));
     force_rows(&mut s, "at θ at rest", &f.min_force_at_rest);
     force_rows(&mut s, "at the median θ", &f.min_force_median);
+    if let (Some(c), Some(k)) = (&f.min_force_fallback, &f.fallback) {
+        force_rows(
+            &mut s,
+            &format!("at a constant {} Nm", constant_label(k)),
+            c,
+        );
+    }
     let capped = at_ceiling(f);
     if !capped.is_empty() {
         let _ = writeln!(
             s,
             "  WARNING: the fit reaches the service's ceiling (a quarter of the torque limit) on {} in the recorded motion: there the budget is met only by not detecting; record longer or more of the task and calibrate again",
             capped.join(", ")
+        );
+    }
+    let fallback: Vec<String> = j
+        .iter()
+        .enumerate()
+        .filter(|(_, x)| x.cap_source.as_deref() == Some("fallback"))
+        .map(|(i, x)| match x.cap_fitted {
+            Some(c) if c <= x.peak => format!(
+                "J{} (fitted {c:.2} Nm, below the logs' own peak {:.2} Nm)",
+                i + 1,
+                x.peak
+            ),
+            Some(c) => format!("J{} (fitted {c:.2} Nm)", i + 1),
+            None => format!("J{} (its block maxima heavy-tailed)", i + 1),
+        })
+        .collect();
+    if !fallback.is_empty() {
+        let _ = writeln!(
+            s,
+            "  WARNING: the logs support no constant below the stated {} Nm for the budget on {}: the threshold is capped at the stated constant there, and the budget is not guaranteed where the cap binds",
+            f.fallback.as_ref().map_or("?".into(), constant_label),
+            fallback.join(", ")
         );
     }
     let heavy: Vec<String> = j
@@ -285,4 +301,13 @@ fn thresholds_report(f: &ThresholdsFile, path: &Path, edge_s: f64) -> String {
         }
     );
     s
+}
+
+/// "6" when every joint has the same stated constant, else the seven values.
+fn constant_label(k: &[f64; 7]) -> String {
+    if k.iter().all(|v| *v == k[0]) {
+        format!("{}", k[0])
+    } else {
+        format!("{k:?}")
+    }
 }

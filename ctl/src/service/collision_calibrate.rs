@@ -61,6 +61,7 @@ impl Operation for Calibrate<'_> {
             2,
         )?;
         joint_row(out, "θ max", "Nm", &per(&|j| r.joints[j].threshold_max), 2)?;
+        joint_row(out, "θ cap", "Nm", &r.schedule.ceiling, 2)?;
         joint_row(out, "peak |r|", "Nm", &per(&|j| r.joints[j].peak), 2)?;
         joint_row(out, "scale s", "1", &per(&|j| r.joints[j].scale), 2)?;
         joint_row(out, "scale σ", "1", &per(&|j| r.joints[j].scale_std), 2)?;
@@ -119,6 +120,23 @@ impl Operation for Calibrate<'_> {
                 j + 1,
                 fixed(fit.shape_interval[0], 2),
                 fixed(fit.shape_interval[1], 2)
+            )?;
+        }
+        for (j, fit) in r
+            .joints
+            .iter()
+            .enumerate()
+            .filter(|(_, f)| f.cap_source.as_deref() == Some("fallback"))
+        {
+            writeln!(
+                out,
+                "STATED CAP     joint {}: the recording supports no constant below {} Nm for the budget ({}); capped at that stated constant, the budget is not guaranteed where the cap binds",
+                j + 1,
+                fixed(r.schedule.ceiling[j], 2),
+                fit.cap_fitted
+                    .map_or("its block maxima are heavy-tailed".to_owned(), |c| {
+                        format!("fitted {} Nm, peak {} Nm", fixed(c, 2), fixed(fit.peak, 2))
+                    })
             )?;
         }
         if r.applied {

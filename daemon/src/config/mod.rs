@@ -136,7 +136,9 @@ pub struct ObserverSettings {
     #[serde(deserialize_with = "per_joint::deserialize")]
     pub gains: [f64; JOINTS],
     /// Detection thresholds per joint, Nm (default 6, as in the paper's Fig. 6); one number
-    /// (the form of older files) sets every joint.
+    /// (the form of older files) sets every joint. Also the stated constant of `collision
+    /// calibrate`: a calibrated schedule never exceeds it where the recording supports no
+    /// smaller constant for the budget.
     #[serde(deserialize_with = "per_joint::deserialize")]
     pub thresholds: [f64; JOINTS],
     /// Whether the collision monitor is armed at start (default true).

@@ -4,6 +4,7 @@
 use nalgebra::{SMatrix, SVector};
 
 use super::bootstrap::{bootstrap, quantile, quantile_sorted};
+use super::cap::constant_cap;
 use super::extreme::{ExtremeFit, TailShape, tail_shape};
 use super::nnls::nnls;
 use super::recorder::{EnvelopeRecorder, Window};
@@ -30,7 +31,9 @@ impl<const N: usize> EnvelopeRecorder<N> {
             .map_err(CalibrationError::ContactInRecording)?;
         let block_s = per_block as f64 * window_s;
         let per_joint_budget = options.budget_per_hour / N as f64;
-        let p_block = per_joint_budget * block_s / 3600.0;
+        // half for the scheduled level, half for the cap: the minimum of the two is exceeded
+        // only when one of them is (union bound)
+        let p_block = per_joint_budget * block_s / 3600.0 / 2.0;
         let mut joints = Vec::with_capacity(N);
         let mut schedule = ThresholdSchedule::<N>::default();
         let mut thresholds = SVector::<f64, N>::zeros();
@@ -57,6 +60,11 @@ impl<const N: usize> EnvelopeRecorder<N> {
                 .collect();
             let extreme =
                 ExtremeFit::fit(&maxima).ok_or(CalibrationError::Degenerate { joint: j })?;
+            let raw_maxima: Vec<f64> = self.windows[..blocks * per_block]
+                .chunks(per_block)
+                .map(|b| b.iter().map(|w| f64::from(w.peak[j])).fold(0.0, f64::max))
+                .collect();
+            let cap = constant_cap(&raw_maxima, self.peak[j], p_block, j, options);
             let (tail, shape_interval) = tail_shape(&maxima, options);
             let level = |sample: &[f64]| {
                 ExtremeFit::fit(sample).map_or(f64::NAN, |f| f.return_level(p_block))
@@ -78,26 +86,26 @@ impl<const N: usize> EnvelopeRecorder<N> {
             let std = (boot.iter().map(|x| (x - mean).powi(2)).sum::<f64>()
                 / (boot.len().max(2) - 1) as f64)
                 .sqrt();
-            let theta0 = (s * coefficients[0]).clamp(options.floor_nm[j], options.ceiling_nm[j]);
+            let theta0 = (s * coefficients[0]).clamp(options.floor_nm[j], cap.nm);
             thresholds[j] = theta0;
             speed[j] = s * coefficients[1];
             schedule.velocity_noise[j] = s * coefficients[2];
             schedule.payload_dynamics[j] = s * coefficients[3];
             schedule.inertial[j] = s * coefficients[4];
             schedule.gravity[j] = s * coefficients[5];
-            schedule.ceiling_nm[j] = options.ceiling_nm[j];
+            schedule.ceiling_nm[j] = cap.nm;
             scale[j] = s;
             let mut scheduled: Vec<f64> = self
                 .windows
                 .iter()
-                .map(|w| (s * envelope(w)).clamp(options.floor_nm[j], options.ceiling_nm[j]))
+                .map(|w| (s * envelope(w)).clamp(options.floor_nm[j], cap.nm))
                 .collect();
             scheduled.sort_by(f64::total_cmp);
             median_threshold[j] = quantile_sorted(&scheduled, 0.5);
             let exceedances = self
                 .windows
                 .iter()
-                .filter(|w| f64::from(w.peak[j]) > s * envelope(w))
+                .filter(|w| f64::from(w.peak[j]) > (s * envelope(w)).min(cap.nm))
                 .count();
             joints.push(JointCalibration {
                 envelope: coefficients,
@@ -105,6 +113,7 @@ impl<const N: usize> EnvelopeRecorder<N> {
                 tail,
                 shape_interval,
                 scale: s,
+                cap,
                 scale_point: point,
                 scale_std: std,
                 scale_interval: [quantile(&boot, 0.05), quantile(&boot, 0.95)],
@@ -183,6 +192,7 @@ impl<const N: usize> EnvelopeRecorder<N> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::calibration::CapSource;
     use crate::calibration::rng::SplitMix64;
     use crate::envelope::MotionFeatures;
 
@@ -243,8 +253,25 @@ mod tests {
     #[test]
     fn thresholds_follow_the_envelope_and_the_budget() {
         let rec = record([2.0, 0.0], [0.5, 0.1], 300.0, 3);
-        let options = FitOptions::<2>::new(1e-3);
+        // Joint 1's residual reaches 6.7 Nm: at the default stated constant (6 Nm) its cap is
+        // the fallback, reported, and its own recording crosses it.
+        let stated = rec.fit(&FitOptions::<2>::new(1e-3)).unwrap();
+        let loud = &stated.joints[0];
+        assert_eq!(loud.cap.source, CapSource::Fallback, "{loud:?}");
+        assert!(loud.cap.fitted_nm > 6.0 && loud.exceedances > 0, "{loud:?}");
+        assert_eq!(stated.schedule.ceiling_nm[0], 6.0);
+        // The envelope's own test: a stated constant far above this residual.
+        let options = FitOptions::<2> {
+            fallback_nm: V2::repeat(1e3),
+            ..FitOptions::new(1e-3)
+        };
         let c = rec.fit(&options).unwrap();
+        for j in &c.joints {
+            // Never above the constant the recording supports, which is above its peak.
+            assert_eq!(j.cap.source, CapSource::Fitted, "{j:?}");
+            assert!(j.threshold_max_nm <= j.cap.nm, "{j:?}");
+            assert!(j.cap.nm > j.peak_nm, "{j:?}");
+        }
         // The noisier joint gets the higher threshold, the speed term only where it exists.
         assert!(c.thresholds_nm[0] > 2.0 * c.thresholds_nm[1], "{c:?}");
         assert!(

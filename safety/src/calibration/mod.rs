@@ -16,8 +16,13 @@
 //!    budget B false alarms per hour is split over the joints (union bound), so joint j may
 //!    exceed with probability p = (B/N)·block_s/3600 per block; its scale s_j is the fit's
 //!    return level for p, at the upper bound of a block bootstrap at `confidence`.
-//! 5. **Thresholds** θ_j(φ) = s_j·e_j(φ): θ0_j = s_j·a_j at rest and the
-//!    [`ThresholdSchedule`] coefficients s_j·c_jk, clamped into the allowed range.
+//! 5. **Cap** ([`cap`]): the constant the raw block maxima of |r_j| support for the same
+//!    probability, or the stated fallback (the paper's 6 Nm) where they support none that small.
+//!    The scale and the cap are each fitted for half of p (union bound: their minimum is
+//!    exceeded only when one of them is).
+//! 6. **Thresholds** θ_j(φ) = min(s_j·e_j(φ), cap_j): θ0_j = s_j·a_j at rest and the
+//!    [`ThresholdSchedule`] coefficients s_j·c_jk, its ceiling the cap, clamped into the
+//!    allowed range.
 //!
 //! A fixed multiple of the recording's peak would not say how often it is exceeded; the
 //! extreme-value fit does, with its uncertainty. It extrapolates: the recording must cover the
@@ -35,6 +40,7 @@ use serde::{Deserialize, Serialize};
 use crate::detector::ThresholdSchedule;
 
 mod bootstrap;
+pub mod cap;
 pub mod extreme;
 pub mod fit;
 pub mod force;
@@ -44,6 +50,7 @@ pub mod recorder;
 mod rng;
 pub mod screen;
 
+pub use cap::{Cap, CapSource};
 pub use extreme::{ExtremeFit, TailShape};
 pub use force::{LinkForce, minimum_detectable_force};
 pub use recorder::EnvelopeRecorder;
@@ -118,11 +125,21 @@ pub struct FitOptions<const N: usize> {
     pub floor_nm: SVector<f64, N>,
     /// Largest threshold per joint \[Nm\].
     pub ceiling_nm: SVector<f64, N>,
+    /// The stated constant per joint \[Nm\]: the cap where the recording supports no smaller
+    /// constant for the budget ([`cap`]; default the paper's 6 Nm).
+    #[serde(default = "default_fallback")]
+    pub fallback_nm: SVector<f64, N>,
+}
+
+/// The paper's constant threshold on every joint \[Nm\].
+fn default_fallback<const N: usize>() -> SVector<f64, N> {
+    SVector::repeat(crate::detector::DEFAULT_THRESHOLD_NM)
 }
 
 impl<const N: usize> FitOptions<N> {
     /// Defaults at sample period `sample_period_s` \[s\]: one false alarm per 10 h, 1 s blocks,
-    /// 90 % upper bound from 200 bootstrap resamples, thresholds 0.1 Nm…unbounded.
+    /// 90 % upper bound from 200 bootstrap resamples, thresholds 0.1 Nm…unbounded, capped at
+    /// the paper's 6 Nm where the recording supports no smaller constant.
     pub fn new(sample_period_s: f64) -> Self {
         Self {
             budget_per_hour: 0.1,
@@ -133,6 +150,7 @@ impl<const N: usize> FitOptions<N> {
             seed: 2017,
             floor_nm: SVector::repeat(0.1),
             ceiling_nm: SVector::repeat(f64::MAX),
+            fallback_nm: default_fallback(),
         }
     }
 
@@ -156,6 +174,7 @@ impl<const N: usize> FitOptions<N> {
         bounded("resamples", self.resamples as f64, 20.0, 10000.0)?;
         for j in 0..N {
             bounded("floor_nm", self.floor_nm[j], 1e-3, 1e3)?;
+            bounded("fallback_nm", self.fallback_nm[j], self.floor_nm[j], 1e3)?;
             if self.ceiling_nm[j].is_nan() || self.ceiling_nm[j] < self.floor_nm[j] {
                 return Err(CalibrationError::Option {
                     field: "ceiling_nm",
@@ -181,8 +200,10 @@ pub struct JointCalibration {
     pub tail: TailShape,
     /// 5–95 % bootstrap interval of the GEV shape ξ.
     pub shape_interval: [f64; 2],
-    /// Scale s_j used: θ_j = s_j·e_j(φ) (the upper bound at the options' confidence).
+    /// Scale s_j used: θ_j = min(s_j·e_j(φ), cap) (the upper bound at the options' confidence).
     pub scale: f64,
+    /// The constant cap of the schedule ([`cap`]).
+    pub cap: Cap,
     /// The return level's point estimate.
     pub scale_point: f64,
     /// Bootstrap standard deviation of the return level.

@@ -183,6 +183,9 @@ impl ServiceCore {
         options.budget_per_hour = budget;
         options.floor_nm = nalgebra::SVector::repeat(fri_api::bounds::MIN_THRESHOLD_NM);
         options.ceiling_nm = nalgebra::SVector::from_fn(|j, _| fri_api::bounds::threshold(j).max);
+        // the configured constant thresholds are the stated constant: the cap wherever the
+        // recording supports no smaller one (safety::calibration::cap)
+        options.fallback_nm = nalgebra::SVector::from(self.config.observer.thresholds);
         let fit = recording.recorder.fit(&options).map_err(refused)?;
         let result = self.calibration_result(source, &fit, recording.payload)?;
         if !apply {

@@ -6,7 +6,6 @@ use fri_api::cause::{Cause, ThresholdAboveCeiling};
 use fri_api::protocol::{CalibrationSource, ErrorCode, OperatorError};
 use fri_api::results::{
     AppliedPayload as AppliedPayloadResult, CalibrateResult, CalibrationInfo, JointFit, LinkForce,
-    ThresholdSchedule,
 };
 use safety::calibration::{Calibration, CalibrationError, minimum_detectable_force};
 use safety::lwr4_link_surfaces;
@@ -36,37 +35,11 @@ impl ServiceCore {
                 p90: f[l].p90_n,
             })
         };
-        let array = |v: &nalgebra::SVector<f64, 7>| -> [f64; 7] { std::array::from_fn(|j| v[j]) };
-        let joints: Vec<JointFit> = fit
-            .joints
-            .iter()
-            .map(|j| JointFit {
-                threshold_at_rest: j.threshold_at_rest_nm,
-                threshold_median: j.threshold_median_nm,
-                threshold_max: j.threshold_max_nm,
-                envelope: j.envelope,
-                model: j.tail.name().to_owned(),
-                shape_interval: j.shape_interval,
-                scale: j.scale,
-                scale_point: j.scale_point,
-                scale_std: j.scale_std,
-                scale_interval: j.scale_interval,
-                peak: j.peak_nm,
-                exceedances: j.exceedances,
-            })
-            .collect();
+        let joints: Vec<JointFit> = fri_api::monitor::joint_fits(&fit);
         if joints.len() != 7 {
             return Err(err(ErrorCode::Internal, "calibration without seven joints"));
         }
-        let schedule = ThresholdSchedule {
-            thresholds: array(&fit.thresholds_nm),
-            speed: array(&fit.velocity_coefficients),
-            velocity_noise: array(&fit.schedule.velocity_noise),
-            payload_dynamics: array(&fit.schedule.payload_dynamics),
-            inertial: array(&fit.schedule.inertial),
-            gravity: array(&fit.schedule.gravity),
-            scale: array(&fit.scale),
-        };
+        let schedule = fri_api::monitor::schedule_of(&fit);
         let recording = CalibrationInfo {
             budget_per_hour: fit.budget_per_hour,
             duration_s: fit.duration_s,

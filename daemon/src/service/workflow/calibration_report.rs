@@ -35,11 +35,11 @@ impl ServiceCore {
                 p90: f[l].p90_n,
             })
         };
-        let joints: Vec<JointFit> = fri_api::monitor::joint_fits(&fit);
+        let joints: Vec<JointFit> = fri_api::monitor::joint_fits(fit);
         if joints.len() != 7 {
             return Err(err(ErrorCode::Internal, "calibration without seven joints"));
         }
-        let schedule = fri_api::monitor::schedule_of(&fit);
+        let schedule = fri_api::monitor::schedule_of(fit);
         let recording = CalibrationInfo {
             budget_per_hour: fit.budget_per_hour,
             duration_s: fit.duration_s,

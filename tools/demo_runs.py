@@ -9,6 +9,7 @@ load the cores for the whole series. Prints one line per run and a summary line
     cargo build --release -p fri-demo
     python3 tools/demo_runs.py --runs 20             # idle
     python3 tools/demo_runs.py --runs 20 --busy 2    # both cores busy
+    python3 tools/demo_runs.py --runs 50 --lockstep  # the controller in lockstep, seeds 1-50
 """
 import argparse
 import json
@@ -23,6 +24,7 @@ def main() -> int:
     ap.add_argument("--busy", type=int, default=0, help="busy loops running meanwhile (0..16)")
     ap.add_argument("--binary", default="target/release/fri-demo")
     ap.add_argument("--first-seed", type=int, default=1)
+    ap.add_argument("--lockstep", action="store_true", help="the simulated controller in lockstep")
     args = ap.parse_args()
     if not 1 <= args.runs <= 1000:
         ap.error(f"--runs {args.runs} is outside 1..1000")
@@ -35,7 +37,8 @@ def main() -> int:
             seed = args.first_seed + k
             with tempfile.TemporaryDirectory() as out:
                 p = subprocess.run(
-                    [args.binary, "demo", "--json", "--seed", str(seed), "--out", out],
+                    [args.binary, "demo", "--json", "--seed", str(seed), "--out", out]
+                    + (["--lockstep"] if args.lockstep else []),
                     capture_output=True, text=True, timeout=600,
                 )
             verdict, why = False, f"exit {p.returncode}: {p.stderr.strip().splitlines()[-1:] }"

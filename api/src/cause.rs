@@ -169,8 +169,9 @@ pub enum Cause {
     },
 }
 
-/// A calibrated threshold above the configured ceiling: at rest, or as the median of the
-/// schedule over the recording (what the monitor runs at during the task).
+/// A calibrated threshold above the configured ceiling: at rest, as the median of the schedule
+/// over the recording (what the monitor runs at during the task), or at the schedule's largest
+/// value (its cap: what it may reach in a faster motion).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ThresholdAboveCeiling {
     /// Joint, 1..7.
@@ -179,6 +180,10 @@ pub struct ThresholdAboveCeiling {
     pub threshold_at_rest_nm: f64,
     /// The median of the scheduled threshold over the recording, Nm.
     pub threshold_median_nm: f64,
+    /// The largest the scheduled threshold may become (its cap), Nm (0 from a service that did
+    /// not report it).
+    #[serde(default)]
+    pub threshold_max_nm: f64,
     /// The ceiling, Nm.
     pub ceiling_nm: f64,
 }

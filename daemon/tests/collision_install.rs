@@ -26,7 +26,7 @@ fn schedule() -> ThresholdSchedule {
         inertial: [0.1, 0.2, 0.1, 0.1, 0.0, 0.0, 0.0],
         gravity: [0.0, 0.01, 0.0, 0.01, 0.0, 0.0, 0.0],
         scale: [12.9, 8.0, 12.7, 9.0, 7.0, 5.0, 6.6],
-        ceiling: [6.0, 6.0, 4.5, 6.0, 6.0, 6.0, 3.2],
+        ceiling: [2.5, 4.5, 2.5, 3.0, 2.0, 1.5, 1.5],
     }
 }
 
@@ -93,9 +93,16 @@ async fn installed_thresholds_carry_their_schedule_and_gains_are_audited_and_sur
             && d["origin"]["kind"] == "operator"
     })
     .await;
-    // A file written before caps (no `ceiling`) installs, capped at the service's ceiling.
+    // A file written before caps (no `ceiling`) may reach a quarter of the torque limit in
+    // motion: weaker than the configured 6 Nm, so it installs only with allow_weaker.
     let mut old = serde_json::to_value(install()).unwrap();
     old["schedule"].as_object_mut().unwrap().remove("ceiling");
+    let e = refused(call(&mut c, serde_json::from_value(old.clone()).unwrap()).await);
+    let Some(Cause::CalibrationAboveCeiling { joints }) = e.cause.as_deref() else {
+        panic!("{e:?}");
+    };
+    assert_eq!(joints.len(), 7, "{e:?}");
+    old["allow_weaker"] = json!(true);
     let m: CollisionResult = serde_json::from_value(
         call(&mut c, serde_json::from_value(old).unwrap())
             .await
@@ -211,7 +218,26 @@ async fn thresholds_for_another_setup_or_out_of_range_are_refused_and_nothing_ch
     assert!(e.message.contains("`source`"), "{e:?}");
     let e = refused(call(&mut c, with("source", json!(""))).await);
     assert!(e.message.contains("`source`"), "{e:?}");
-    // Above the ceiling of 3 Nm (joint 2, at rest and as median): only with allow_weaker.
+    // θ0 and median under the ceiling of 3 Nm, but a cap above it (joint 1 may reach 5 Nm in
+    // a faster motion): weaker than the configuration, refused.
+    let e = refused(
+        call(
+            &mut c,
+            with("schedule", {
+                let mut s = serde_json::to_value(schedule()).unwrap();
+                s["ceiling"][0] = json!(5.0);
+                s
+            }),
+        )
+        .await,
+    );
+    let Some(Cause::CalibrationAboveCeiling { joints }) = e.cause.as_deref() else {
+        panic!("{e:?}");
+    };
+    assert_eq!(joints[0].joint, 1, "{e:?}");
+    assert_eq!(joints[0].threshold_max_nm, 5.0, "{e:?}");
+    assert!(e.message.contains("up to 5.00 Nm in motion"), "{e:?}");
+    // Above the ceiling of 3 Nm (joint 2, at rest, as median and as cap): only with allow_weaker.
     let e = refused(call(&mut c, install()).await);
     let Some(Cause::CalibrationAboveCeiling { joints }) = e.cause.as_deref() else {
         panic!("{e:?}");

@@ -111,13 +111,13 @@ fn arm_offset(arm: Option<&dynamics::IdentifiedModel<7>>) -> anyhow::Result<Opti
     .transpose()
 }
 
-/// Whether θ0 and the median stay under the default `[observer] calibration_ceiling_nm` (half
-/// the thresholds' range) on every joint: then a service with the default ceiling installs
-/// the file without `--allow-weak`.
+/// Whether θ0, the median and the cap stay under the default `[observer]
+/// calibration_ceiling_nm` (the paper's 6 Nm) on every joint: then a service with the default
+/// ceiling installs the file without `--allow-weak`.
 fn below_configured_ceiling(f: &ThresholdsFile) -> bool {
-    f.joints.iter().enumerate().all(|(j, x)| {
-        let ceiling = 0.5 * bounds::threshold(j).max;
-        x.threshold_at_rest <= ceiling && x.threshold_median <= ceiling
+    f.joints.iter().zip(&f.schedule.ceiling).all(|(x, cap)| {
+        let ceiling = safety::DEFAULT_THRESHOLD_NM;
+        x.threshold_at_rest <= ceiling && x.threshold_median <= ceiling && *cap <= ceiling
     })
 }
 

@@ -39,9 +39,10 @@ rest and in motion, the fit's uncertainty, the covered speeds and accelerations,
 minimum detectable force per link. `--apply` installs and stores them with the payload applied \
 now; without it the result is a preview. Touching the arm during the recording aborts it when \
 the monitor is armed; armed or not, the calibration refuses a recording in which the residual \
-holds a contact-like level (naming the joint and the time). Thresholds (at rest or median over \
-the recording) above the service's `[observer] calibration_ceiling_nm` (default an eighth of \
-the joint's torque limit: 22 Nm on joints 1–2, 12.5 on 3–5, 4.75 on 6–7) weaken detection: \
+holds a contact-like level (naming the joint and the time). Every threshold is capped at the \
+constant the recording supports, or at the configured `[observer] thresholds` where it supports \
+none that small (a STATED CAP line says so). Thresholds (at rest, median over the recording or \
+cap) above the service's `[observer] calibration_ceiling_nm` (default 6 Nm) weaken detection: \
 `--apply` refuses them unless `--allow-weak` is given (the audit log then records them as \
 weaker).
 

@@ -126,10 +126,11 @@ fn cause_lines(cause: &Cause) -> Vec<String> {
             .iter()
             .map(|a| {
                 format!(
-                    "cause: joint {}: calibrated threshold {} Nm at rest, {} Nm median over the recording, above the ceiling {} Nm ([observer] calibration_ceiling_nm); `--allow-weak` installs it anyway",
+                    "cause: joint {}: calibrated threshold {} Nm at rest, {} Nm median over the recording, up to {} Nm in motion, above the ceiling {} Nm ([observer] calibration_ceiling_nm); `--allow-weak` installs it anyway",
                     a.joint,
                     fixed(a.threshold_at_rest_nm, 2),
                     fixed(a.threshold_median_nm, 2),
+                    fixed(a.threshold_max_nm, 2),
                     fixed(a.ceiling_nm, 2)
                 )
             })
@@ -259,6 +260,7 @@ mod tests {
                     joint: 1,
                     threshold_at_rest_nm: 2.11,
                     threshold_median_nm: 40.27,
+                    threshold_max_nm: 44.0,
                     ceiling_nm: 22.0,
                 }],
             },

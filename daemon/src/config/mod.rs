@@ -143,21 +143,20 @@ pub struct ObserverSettings {
     pub thresholds: [f64; JOINTS],
     /// Whether the collision monitor is armed at start (default true).
     pub armed: bool,
-    /// Largest calibrated threshold — at rest, and as the median of the schedule over the
-    /// recording — that `collision calibrate --apply` installs without `allow_weaker`, per
-    /// joint, Nm (default half of the thresholds' range top, an eighth of the joint's torque
-    /// limit: 22, 22, 12.5, 12.5, 12.5, 4.75, 4.75; one number sets every joint; each within
-    /// the thresholds' range). A calibration above it weakens detection: refused, or installed
-    /// with `allow_weaker` and logged as weaker than the configuration.
+    /// Largest calibrated threshold — at rest, as the median of the schedule over the
+    /// recording, and as the schedule's cap (the largest it may reach) — that `collision
+    /// calibrate --apply` and `collision-install` install without `allow_weaker`, per joint, Nm
+    /// (default the default thresholds, the paper's 6 Nm: a calibration may make detection
+    /// sharper than the configuration, never weaker, unless allowed; one number sets every
+    /// joint; each within the thresholds' range). A calibration above it weakens detection:
+    /// refused, or installed with `allow_weaker` and logged as weaker than the configuration.
     #[serde(deserialize_with = "per_joint::deserialize")]
     pub calibration_ceiling_nm: [f64; JOINTS],
 }
 
-/// Default `[observer] calibration_ceiling_nm` of joint `j`, Nm: half of the largest threshold
-/// (`fri_api::bounds::threshold`), an eighth of the joint's torque limit.
-pub fn default_calibration_ceiling_nm(j: usize) -> f64 {
-    0.5 * fri_api::bounds::threshold(j).max
-}
+/// Default `[observer] calibration_ceiling_nm`, Nm per joint: the default threshold, the
+/// paper's constant (a calibration that weakens the configured detection needs `allow_weaker`).
+pub const DEFAULT_CALIBRATION_CEILING_NM: f64 = safety::DEFAULT_THRESHOLD_NM;
 
 impl Default for ObserverSettings {
     fn default() -> Self {
@@ -165,7 +164,7 @@ impl Default for ObserverSettings {
             gains: [safety::DEFAULT_GAIN; JOINTS],
             thresholds: [6.0; JOINTS],
             armed: true,
-            calibration_ceiling_nm: std::array::from_fn(default_calibration_ceiling_nm),
+            calibration_ceiling_nm: [DEFAULT_CALIBRATION_CEILING_NM; JOINTS],
         }
     }
 }

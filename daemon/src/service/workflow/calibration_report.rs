@@ -52,11 +52,17 @@ impl ServiceCore {
         let payload_result: Option<AppliedPayloadResult> = payload.as_ref().map(applied);
         let ceiling = &self.config.observer.calibration_ceiling_nm;
         let above_ceiling = (0..7)
-            .filter(|&j| fit.thresholds_nm[j].max(fit.median_thresholds_nm[j]) > ceiling[j])
+            .filter(|&j| {
+                fit.thresholds_nm[j]
+                    .max(fit.median_thresholds_nm[j])
+                    .max(fit.schedule.ceiling_nm[j])
+                    > ceiling[j]
+            })
             .map(|j| ThresholdAboveCeiling {
                 joint: j + 1,
                 threshold_at_rest_nm: fit.thresholds_nm[j],
                 threshold_median_nm: fit.median_thresholds_nm[j],
+                threshold_max_nm: fit.schedule.ceiling_nm[j],
                 ceiling_nm: ceiling[j],
             })
             .collect();
@@ -104,8 +110,8 @@ pub(super) fn above_ceiling(joints: &[ThresholdAboveCeiling]) -> Vec<String> {
         .iter()
         .map(|a| {
             format!(
-                "joint {} threshold {:.2} Nm at rest, {:.2} Nm median over the recording, above the ceiling {:.2} Nm",
-                a.joint, a.threshold_at_rest_nm, a.threshold_median_nm, a.ceiling_nm
+                "joint {} threshold {:.2} Nm at rest, {:.2} Nm median over the recording, up to {:.2} Nm in motion, above the ceiling {:.2} Nm",
+                a.joint, a.threshold_at_rest_nm, a.threshold_median_nm, a.threshold_max_nm, a.ceiling_nm
             )
         })
         .collect()

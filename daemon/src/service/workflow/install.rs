@@ -6,8 +6,10 @@
 //! fitted at this service's controller period and on this service's arm model (the identified
 //! arm's offsets, or the nominal model on both sides). The gains come with the thresholds (the
 //! residual's noise scales with them). The configured ceiling (`[observer]
-//! calibration_ceiling_nm`) applies to θ0 and to the median over the fitted recording as for
-//! `collision-calibrate`: above it only with `allow_weaker`, recorded as weaker.
+//! calibration_ceiling_nm`) applies to θ0, to the median over the fitted recording and to the
+//! schedule's cap (the largest it may reach; a file from before caps reaches a quarter of the
+//! torque limit) as for `collision-calibrate`: above it only with `allow_weaker`, recorded as
+//! weaker.
 
 use fri_api::cause::{Cause, ThresholdAboveCeiling};
 use fri_api::protocol::{ErrorCode, InstallThresholds, OperatorError};
@@ -49,11 +51,17 @@ impl ServiceCore {
         } = request;
         let ceiling = &self.config.observer.calibration_ceiling_nm;
         let above: Vec<ThresholdAboveCeiling> = (0..7)
-            .filter(|&j| schedule.thresholds[j].max(median_thresholds[j]) > ceiling[j])
+            .filter(|&j| {
+                schedule.thresholds[j]
+                    .max(median_thresholds[j])
+                    .max(schedule.ceiling[j])
+                    > ceiling[j]
+            })
             .map(|j| ThresholdAboveCeiling {
                 joint: j + 1,
                 threshold_at_rest_nm: schedule.thresholds[j],
                 threshold_median_nm: median_thresholds[j],
+                threshold_max_nm: schedule.ceiling[j],
                 ceiling_nm: ceiling[j],
             })
             .collect();

@@ -35,16 +35,32 @@ impl TorqueSensors {
     /// Draws the per-joint offsets from `seed` and starts with zero drift.
     pub fn new(spec: &SensorSpec, seed: u64) -> Self {
         let mut rng = StdRng::seed_from_u64(seed);
-        let offset = JointVector::from_fn(|_, _| {
-            let z: f64 = StandardNormal.sample(&mut rng);
-            z * spec.torque_offset_sigma_nm
-        });
+        let offset = Self::offsets(spec, &mut rng);
         Self {
             spec: spec.clone(),
             offset,
             drift: JointVector::zeros(),
             rng,
         }
+    }
+
+    /// The offsets of the sensors drawn from `arm_seed` (the same arm in every run that shares
+    /// it), the noise and drift from `run_seed`.
+    pub fn of_arm(spec: &SensorSpec, arm_seed: u64, run_seed: u64) -> Self {
+        let offset = Self::offsets(spec, &mut StdRng::seed_from_u64(arm_seed));
+        Self {
+            spec: spec.clone(),
+            offset,
+            drift: JointVector::zeros(),
+            rng: StdRng::seed_from_u64(run_seed),
+        }
+    }
+
+    fn offsets(spec: &SensorSpec, rng: &mut StdRng) -> JointVector {
+        JointVector::from_fn(|_, _| {
+            let z: f64 = StandardNormal.sample(rng);
+            z * spec.torque_offset_sigma_nm
+        })
     }
 
     /// Advances the drift random walk by `dt_s` seconds.
@@ -119,6 +135,27 @@ mod tests {
         let sd = (sq / n as f64 - mean * mean).sqrt();
         assert!(mean.abs() < 0.002, "mean {mean}");
         assert!((sd - 0.05).abs() < 0.002, "sd {sd}");
+    }
+
+    #[test]
+    fn runs_of_one_arm_share_its_offsets_and_not_its_noise() {
+        let spec = SensorSpec {
+            torque_noise_nm: 0.05,
+            torque_offset_sigma_nm: 0.1,
+            torque_drift_nm_per_sqrt_s: 0.0,
+            torque_quantum_nm: [0.0; JOINTS],
+            encoder_quantum_rad: 0.0,
+        };
+        let (mut first, mut second) = (
+            TorqueSensors::of_arm(&spec, 7, 1),
+            TorqueSensors::of_arm(&spec, 7, 2),
+        );
+        assert_eq!(first.bias(), second.bias());
+        assert!(first.bias().norm() > 0.0);
+        let tau = JointVector::zeros();
+        assert_ne!(first.read(&tau), second.read(&tau));
+        // another arm has other offsets
+        assert_ne!(TorqueSensors::of_arm(&spec, 8, 1).bias(), first.bias());
     }
 
     #[test]

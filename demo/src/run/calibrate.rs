@@ -10,8 +10,9 @@ use super::clock::{current_cycle, wait_fresh_state};
 use super::scenario::free_motion;
 use super::{CALIBRATION_RECORD_S, DemoOptions, say};
 
-/// Calibrates the service's thresholds on the task: a contact-free run of the free motion
-/// (payload attached and its estimate applied; its own noise and drift draws), recorded as
+/// Calibrates the service's thresholds on the task: a contact-free run of the free motion on
+/// the same simulated arm (payload attached and its estimate applied; its own noise and drift
+/// draws), recorded as
 /// `current-task`, budget one false alarm per 10 h, applied. The task, not the built-in
 /// excitation: the excitation moves joint 1 and the pose pattern, and a schedule fitted there
 /// extrapolates to the other joints' fast moves (joint 2 reached its ceiling in the free
@@ -26,7 +27,9 @@ pub(super) async fn calibrate_thresholds(
         "      calibrating the collision thresholds on the task (a contact-free run of the free motion) ...",
     );
     let before = current_cycle(client).await?;
+    // the same arm (its sensors' offsets, its controller's model), other noise
     let mut task = free_motion(opts.seed.wrapping_add(1), opts.arm);
+    task.arm_seed = Some(opts.seed);
     task.contacts.clear();
     // The service counts recorded samples only: the feature filters' settling (0.1 s) at the
     // start and after each gap the monitor cannot bridge (a host that stalls the real-time

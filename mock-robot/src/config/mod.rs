@@ -35,6 +35,10 @@ pub struct SimulationConfig {
     pub name: String,
     /// Master seed of every random process (sensor noise, model perturbation, faults).
     pub seed: u64,
+    /// Seed of what makes the arm itself (its torque sensors' offsets, the controller model's
+    /// perturbation, a real profile's sensed terms), when another run of the same arm is meant
+    /// (e.g. a calibration run before the task: the same arm, other noise); `None`: `seed`.
+    pub arm_seed: Option<u64>,
     /// FRI cycle (friOpen argument), ms, 1..=100.
     pub cycle_ms: u32,
     /// Physics integration rate, Hz (≥ 5000); the substep count per cycle is rounded up.
@@ -77,6 +81,7 @@ impl Default for SimulationConfig {
         Self {
             name: "default".into(),
             seed: 1,
+            arm_seed: None,
             cycle_ms: 1,
             physics_rate_hz: 5000.0,
             duration_s: None,

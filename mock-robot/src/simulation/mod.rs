@@ -100,6 +100,7 @@ impl Simulation {
         // A real arm's profile: its identified dynamics are the truth, the controller computes
         // from the nominal model as a KRC does (no perturbation on top).
         let real = RealArm::of(&config.arm)?;
+        let arm_seed = config.arm_seed.unwrap_or(config.seed);
         let arm = Arm::new(
             &config,
             real.as_ref().map_or_else(dynamics::lwr4, RealArm::model),
@@ -107,9 +108,9 @@ impl Simulation {
         )?;
         let controller_model = match &real {
             Some(_) => dynamics::lwr4(),
-            None => perturbed_model(&dynamics::lwr4(), &config.model, config.seed ^ SEED_MODEL),
+            None => perturbed_model(&dynamics::lwr4(), &config.model, arm_seed ^ SEED_MODEL),
         };
-        let sensed = real.map(|a| Box::new(SensedArmTerms::new(&a, config.seed ^ SEED_ARM)));
+        let sensed = real.map(|a| Box::new(SensedArmTerms::new(&a, arm_seed ^ SEED_ARM)));
         let motion = MotionPlayer::new(&config.motion, q);
         let end_s = config
             .duration_s
@@ -120,7 +121,14 @@ impl Simulation {
             data_ctrl: Data::new(&controller_model),
             arm,
             controller_model,
-            sensors: TorqueSensors::new(&config.sensors, config.seed ^ SEED_SENSORS),
+            sensors: match config.arm_seed {
+                None => TorqueSensors::new(&config.sensors, config.seed ^ SEED_SENSORS),
+                Some(a) => TorqueSensors::of_arm(
+                    &config.sensors,
+                    a ^ SEED_SENSORS,
+                    config.seed ^ SEED_SENSORS,
+                ),
+            },
             sensed,
             link: FriLink::new(
                 &config.controller,

@@ -30,6 +30,13 @@ fn schedule() -> ThresholdSchedule {
     }
 }
 
+/// [`schedule`] as JSON with `field[index]` set to `value`.
+fn schedule_with(field: &str, index: usize, value: f64) -> serde_json::Value {
+    let mut s = serde_json::to_value(schedule()).unwrap();
+    s[field][index] = json!(value);
+    s
+}
+
 fn recording() -> CalibrationInfo {
     CalibrationInfo {
         budget_per_hour: 0.1,
@@ -166,30 +173,10 @@ async fn thresholds_for_another_setup_or_out_of_range_are_refused_and_nothing_ch
     );
     assert!(e.message.contains("nominal model"), "{e:?}");
     // A negative schedule coefficient, a gain beyond the 1 ms bound, a median below the floor.
-    let e = refused(
-        call(
-            &mut c,
-            with("schedule", {
-                let mut s = serde_json::to_value(schedule()).unwrap();
-                s["speed"][2] = json!(-1.0);
-                s
-            }),
-        )
-        .await,
-    );
+    let e = refused(call(&mut c, with("schedule", schedule_with("speed", 2, -1.0))).await);
     assert!(e.message.contains("schedule.speed[2]"), "{e:?}");
     // A cap beyond the wrist's quarter of its torque limit (9.5 Nm): detection off there.
-    let e = refused(
-        call(
-            &mut c,
-            with("schedule", {
-                let mut s = serde_json::to_value(schedule()).unwrap();
-                s["ceiling"][6] = json!(30.0);
-                s
-            }),
-        )
-        .await,
-    );
+    let e = refused(call(&mut c, with("schedule", schedule_with("ceiling", 6, 30.0))).await);
     assert!(e.message.contains("schedule.ceiling[6]"), "{e:?}");
     let e = refused(
         call(
@@ -220,17 +207,7 @@ async fn thresholds_for_another_setup_or_out_of_range_are_refused_and_nothing_ch
     assert!(e.message.contains("`source`"), "{e:?}");
     // θ0 and median under the ceiling of 3 Nm, but a cap above it (joint 1 may reach 5 Nm in
     // a faster motion): weaker than the configuration, refused.
-    let e = refused(
-        call(
-            &mut c,
-            with("schedule", {
-                let mut s = serde_json::to_value(schedule()).unwrap();
-                s["ceiling"][0] = json!(5.0);
-                s
-            }),
-        )
-        .await,
-    );
+    let e = refused(call(&mut c, with("schedule", schedule_with("ceiling", 0, 5.0))).await);
     let Some(Cause::CalibrationAboveCeiling { joints }) = e.cause.as_deref() else {
         panic!("{e:?}");
     };

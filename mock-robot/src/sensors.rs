@@ -105,6 +105,17 @@ impl TorqueSensors {
 mod tests {
     use super::*;
 
+    /// Sensors with noise, offset and drift σ as given, nothing quantised.
+    fn spec(noise_nm: f64, offset_sigma_nm: f64, drift_nm_per_sqrt_s: f64) -> SensorSpec {
+        SensorSpec {
+            torque_noise_nm: noise_nm,
+            torque_offset_sigma_nm: offset_sigma_nm,
+            torque_drift_nm_per_sqrt_s: drift_nm_per_sqrt_s,
+            torque_quantum_nm: [0.0; JOINTS],
+            encoder_quantum_rad: 0.0,
+        }
+    }
+
     #[test]
     fn quantise_rounds_to_step() {
         assert_eq!(quantise(0.05, 0.0357), 0.0357);
@@ -115,13 +126,7 @@ mod tests {
 
     #[test]
     fn noise_statistics_match_spec() {
-        let spec = SensorSpec {
-            torque_noise_nm: 0.05,
-            torque_offset_sigma_nm: 0.0,
-            torque_drift_nm_per_sqrt_s: 0.0,
-            torque_quantum_nm: [0.0; JOINTS],
-            encoder_quantum_rad: 0.0,
-        };
+        let spec = spec(0.05, 0.0, 0.0);
         let mut s = TorqueSensors::new(&spec, 3);
         let tau = JointVector::from_element(1.0);
         let n = 20_000;
@@ -139,13 +144,7 @@ mod tests {
 
     #[test]
     fn runs_of_one_arm_share_its_offsets_and_not_its_noise() {
-        let spec = SensorSpec {
-            torque_noise_nm: 0.05,
-            torque_offset_sigma_nm: 0.1,
-            torque_drift_nm_per_sqrt_s: 0.0,
-            torque_quantum_nm: [0.0; JOINTS],
-            encoder_quantum_rad: 0.0,
-        };
+        let spec = spec(0.05, 0.1, 0.0);
         let (mut first, mut second) = (
             TorqueSensors::of_arm(&spec, 7, 1),
             TorqueSensors::of_arm(&spec, 7, 2),
@@ -160,13 +159,7 @@ mod tests {
 
     #[test]
     fn offsets_seeded_and_drift_grows_like_sqrt_t() {
-        let spec = SensorSpec {
-            torque_noise_nm: 0.0,
-            torque_offset_sigma_nm: 0.1,
-            torque_drift_nm_per_sqrt_s: 0.01,
-            torque_quantum_nm: [0.0; JOINTS],
-            encoder_quantum_rad: 0.0,
-        };
+        let spec = spec(0.0, 0.1, 0.01);
         let a = TorqueSensors::new(&spec, 9);
         let b = TorqueSensors::new(&spec, 9);
         assert_eq!(a.bias(), b.bias());

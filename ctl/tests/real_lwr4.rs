@@ -570,3 +570,29 @@ fn broken_or_foreign_files_are_refused_naming_the_cause() {
         "{text}"
     );
 }
+
+/// Issue 33: identified on runs 1 + 2 together, the fit puts model error into negative viscous
+/// friction (J5 −0.885 Nm·s/rad), which grows with speed beyond the logs; the report says so
+/// loudly, naming the joints, and does not on a joint it fits with friction ≥ 0.
+#[test]
+fn the_identification_warns_of_negative_friction_naming_the_joints() {
+    let dir = Dir::new("warnings");
+    let out = dir.file("arm12.toml");
+    let (run1, run2) = (run("flobaroid-run1.csv"), run("flobaroid-run2.csv"));
+    let text = fri_ctl(&["identify", "--log", &run1, "--log", &run2, "--out", &out]);
+    assert!(text.status.success(), "{text:?}");
+    let text = String::from_utf8_lossy(&text.stdout).into_owned();
+    let line = text
+        .lines()
+        .find(|l| l.contains("WARNING: negative viscous friction"))
+        .unwrap_or_else(|| panic!("no friction warning: {text}"));
+    let file = ok_json(&[
+        "identify", "--log", &run1, "--log", &run2, "--out", &out, "--json",
+    ]);
+    let viscous = file["identified"]["joint"]["viscous"].as_array().unwrap();
+    for (j, v) in viscous.iter().enumerate() {
+        let named = line.contains(&format!("J{} (", j + 1));
+        assert_eq!(named, v.as_f64().unwrap() < 0.0, "J{}: {line}", j + 1);
+    }
+    assert!(line.contains("J5 (-0.885"), "{line}");
+}

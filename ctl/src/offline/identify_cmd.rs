@@ -128,11 +128,56 @@ fn report<const N: usize>(id: &Identification<N>, out_path: &str) -> String {
             nom
         );
     }
+    for w in warnings(f) {
+        let _ = writeln!(s, "  WARNING: {w}");
+    }
     let _ = writeln!(
         s,
         "  use it with: fri-ctl offline estimate-motion --calibration {out_path} …, fri-ctl offline monitor --calibration {out_path} …"
     );
     s
+}
+
+/// What makes an identified arm suspect on motion it has not seen: a joint worse than the
+/// nominal model on held-out data, negative friction (not a physical arm, and its error grows
+/// with speed beyond the logs), no regularisation at all.
+fn warnings(f: &dynamics::IdentifiedFile) -> Vec<String> {
+    let fit = &f.fit;
+    let joints = |pick: &dyn Fn(usize) -> Option<String>| -> Vec<String> {
+        (0..f.joints).filter_map(pick).collect()
+    };
+    let mut out = Vec::new();
+    let worse = joints(&|j| {
+        let (held, nominal) = (fit.heldout_rms[j], fit.residual_rms_nominal[j]);
+        (held > nominal).then(|| format!("J{} ({held:.3} vs {nominal:.3} Nm)", j + 1))
+    });
+    if !worse.is_empty() {
+        out.push(format!(
+            "worse than the nominal model on held-out data on {}: use the nominal model, or identify on more varied motion",
+            worse.join(", ")
+        ));
+    }
+    for (name, unit, values) in [
+        ("viscous", "Nm·s/rad", &f.joint.viscous),
+        ("Coulomb", "Nm", &f.joint.coulomb),
+    ] {
+        let negative = joints(&|j| {
+            (values[j] < 0.0).then(|| format!("J{} ({:+.3} {unit})", j + 1, values[j]))
+        });
+        if !negative.is_empty() {
+            out.push(format!(
+                "negative {name} friction on {}: not a physical arm (friction takes energy out); the fit bends model error into it, and on faster motion than the logs' its error grows with the speed",
+                negative.join(", ")
+            ));
+        }
+    }
+    if fit.ridge_weight == 0.0 {
+        out.push(
+            "the unregularised fit was chosen (λ = 0): held out on blocks of the same motion it measures repeatability, not how it does on other motion"
+                .to_owned(),
+        );
+    }
+    out
 }
 
 fn identify_n<const N: usize>(

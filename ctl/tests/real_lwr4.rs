@@ -595,4 +595,10 @@ fn the_identification_warns_of_negative_friction_naming_the_joints() {
         assert_eq!(named, v.as_f64().unwrap() < 0.0, "J{}: {line}", j + 1);
     }
     assert!(line.contains("J5 (-0.885"), "{line}");
+    // the same words for a tool reading `--json`
+    let warnings = file["warnings"].as_array().unwrap();
+    assert!(
+        warnings.iter().any(|w| line.ends_with(w.as_str().unwrap())),
+        "{warnings:?}"
+    );
 }

@@ -214,6 +214,7 @@ fn identify_n<const N: usize>(
             "identified": id.model.file(),
             "cross_validation": id.cv,
             "joint_weights": id.weights,
+            "warnings": warnings(id.model.file()),
         });
         writeln!(out, "{}", serde_json::to_string_pretty(&obj)?)?;
     } else {

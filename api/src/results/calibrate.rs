@@ -51,6 +51,25 @@ pub struct JointFit {
     pub cap_source: Option<String>,
 }
 
+impl JointFit {
+    /// Why the cap is the stated constant (`None` when it was fitted, or in a fit from before
+    /// caps): its block maxima were heavy-tailed, or the constant fitted to them lay below the
+    /// recording's own peak or above the stated constant.
+    pub fn cap_fallback_reason(&self) -> Option<String> {
+        if self.cap_source.as_deref() != Some("fallback") {
+            return None;
+        }
+        Some(match self.cap_fitted {
+            None => "its block maxima heavy-tailed".to_owned(),
+            Some(c) if c <= self.peak => format!(
+                "fitted {c:.2} Nm, below the recording's own peak {:.2} Nm",
+                self.peak
+            ),
+            Some(c) => format!("fitted {c:.2} Nm"),
+        })
+    }
+}
+
 /// Minimum detectable force on one link, N.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct LinkForce {

@@ -236,15 +236,9 @@ fn thresholds_report(f: &ThresholdsFile, path: &Path, edge_s: f64) -> String {
     let fallback: Vec<String> = j
         .iter()
         .enumerate()
-        .filter(|(_, x)| x.cap_source.as_deref() == Some("fallback"))
-        .map(|(i, x)| match x.cap_fitted {
-            Some(c) if c <= x.peak => format!(
-                "J{} (fitted {c:.2} Nm, below the logs' own peak {:.2} Nm)",
-                i + 1,
-                x.peak
-            ),
-            Some(c) => format!("J{} (fitted {c:.2} Nm)", i + 1),
-            None => format!("J{} (its block maxima heavy-tailed)", i + 1),
+        .filter_map(|(i, x)| {
+            x.cap_fallback_reason()
+                .map(|why| format!("J{} ({why})", i + 1))
         })
         .collect();
     if !fallback.is_empty() {

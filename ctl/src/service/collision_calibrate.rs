@@ -122,21 +122,17 @@ impl Operation for Calibrate<'_> {
                 fixed(fit.shape_interval[1], 2)
             )?;
         }
-        for (j, fit) in r
+        for (j, why) in r
             .joints
             .iter()
             .enumerate()
-            .filter(|(_, f)| f.cap_source.as_deref() == Some("fallback"))
+            .filter_map(|(j, f)| f.cap_fallback_reason().map(|why| (j, why)))
         {
             writeln!(
                 out,
-                "STATED CAP     joint {}: the recording supports no constant below {} Nm for the budget ({}); capped at that stated constant, the budget is not guaranteed where the cap binds",
+                "STATED CAP     joint {}: the recording supports no constant below {} Nm for the budget ({why}); capped at that stated constant, the budget is not guaranteed where the cap binds",
                 j + 1,
                 fixed(r.schedule.ceiling[j], 2),
-                fit.cap_fitted
-                    .map_or("its block maxima are heavy-tailed".to_owned(), |c| {
-                        format!("fitted {} Nm, peak {} Nm", fixed(c, 2), fixed(fit.peak, 2))
-                    })
             )?;
         }
         if r.applied {

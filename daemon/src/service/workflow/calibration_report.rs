@@ -6,6 +6,7 @@ use fri_api::cause::{Cause, ThresholdAboveCeiling};
 use fri_api::protocol::{CalibrationSource, ErrorCode, OperatorError};
 use fri_api::results::{
     AppliedPayload as AppliedPayloadResult, CalibrateResult, CalibrationInfo, JointFit, LinkForce,
+    ThresholdSchedule,
 };
 use safety::calibration::{Calibration, CalibrationError, minimum_detectable_force};
 use safety::lwr4_link_surfaces;
@@ -50,22 +51,12 @@ impl ServiceCore {
             installed_from: None,
         };
         let payload_result: Option<AppliedPayloadResult> = payload.as_ref().map(applied);
-        let ceiling = &self.config.observer.calibration_ceiling_nm;
-        let above_ceiling = (0..7)
-            .filter(|&j| {
-                fit.thresholds_nm[j]
-                    .max(fit.median_thresholds_nm[j])
-                    .max(fit.schedule.ceiling_nm[j])
-                    > ceiling[j]
-            })
-            .map(|j| ThresholdAboveCeiling {
-                joint: j + 1,
-                threshold_at_rest_nm: fit.thresholds_nm[j],
-                threshold_median_nm: fit.median_thresholds_nm[j],
-                threshold_max_nm: fit.schedule.ceiling_nm[j],
-                ceiling_nm: ceiling[j],
-            })
-            .collect();
+        let median: [f64; 7] = std::array::from_fn(|j| fit.median_thresholds_nm[j]);
+        let above_ceiling = joints_above_ceiling(
+            &schedule,
+            &median,
+            &self.config.observer.calibration_ceiling_nm,
+        );
         Ok(CalibrateResult {
             source,
             budget_per_hour: fit.budget_per_hour,
@@ -105,6 +96,30 @@ pub(super) fn refused(e: CalibrationError) -> OperatorError {
 }
 
 /// Each joint above the ceiling in words.
+/// The joints whose threshold at rest, median over the recording (`median`, Nm) or cap exceeds
+/// `ceiling` (Nm): they weaken detection beyond the configuration.
+pub(super) fn joints_above_ceiling(
+    schedule: &ThresholdSchedule,
+    median: &[f64; 7],
+    ceiling: &[f64; 7],
+) -> Vec<ThresholdAboveCeiling> {
+    (0..7)
+        .filter(|&j| {
+            schedule.thresholds[j]
+                .max(median[j])
+                .max(schedule.ceiling[j])
+                > ceiling[j]
+        })
+        .map(|j| ThresholdAboveCeiling {
+            joint: j + 1,
+            threshold_at_rest_nm: schedule.thresholds[j],
+            threshold_median_nm: median[j],
+            threshold_max_nm: schedule.ceiling[j],
+            ceiling_nm: ceiling[j],
+        })
+        .collect()
+}
+
 pub(super) fn above_ceiling(joints: &[ThresholdAboveCeiling]) -> Vec<String> {
     joints
         .iter()

@@ -11,11 +11,11 @@
 //! torque limit) as for `collision-calibrate`: above it only with `allow_weaker`, recorded as
 //! weaker.
 
-use fri_api::cause::{Cause, ThresholdAboveCeiling};
+use fri_api::cause::Cause;
 use fri_api::protocol::{ErrorCode, InstallThresholds, OperatorError};
 use fri_api::results::{Change, CollisionResult};
 
-use super::calibration_report::above_ceiling;
+use super::calibration_report::{above_ceiling, joints_above_ceiling};
 use crate::persistence::StoredMonitor;
 use crate::service::core::{ServiceCore, err};
 use fri_api::origin::Origin;
@@ -49,22 +49,11 @@ impl ServiceCore {
             allow_weaker,
             ..
         } = request;
-        let ceiling = &self.config.observer.calibration_ceiling_nm;
-        let above: Vec<ThresholdAboveCeiling> = (0..7)
-            .filter(|&j| {
-                schedule.thresholds[j]
-                    .max(median_thresholds[j])
-                    .max(schedule.ceiling[j])
-                    > ceiling[j]
-            })
-            .map(|j| ThresholdAboveCeiling {
-                joint: j + 1,
-                threshold_at_rest_nm: schedule.thresholds[j],
-                threshold_median_nm: median_thresholds[j],
-                threshold_max_nm: schedule.ceiling[j],
-                ceiling_nm: ceiling[j],
-            })
-            .collect();
+        let above = joints_above_ceiling(
+            &schedule,
+            &median_thresholds,
+            &self.config.observer.calibration_ceiling_nm,
+        );
         if !above.is_empty() && allow_weaker != Some(true) {
             return Err(err(
                 ErrorCode::Failed,

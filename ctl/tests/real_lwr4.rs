@@ -602,3 +602,40 @@ fn the_identification_warns_of_negative_friction_naming_the_joints() {
         "{warnings:?}"
     );
 }
+
+/// The stated constant of `calibrate-thresholds` is bounded by the thresholds' range, named per
+/// joint, and given once or for all seven joints.
+#[test]
+fn a_stated_constant_out_of_range_is_refused_naming_the_joint() {
+    let dir = Dir::new("fallback");
+    let out = dir.file("thr.json");
+    let run1 = run("flobaroid-run1.csv");
+    let args = |fallback: &'static str| -> Vec<String> {
+        [
+            "calibrate-thresholds",
+            "--log",
+            &run1,
+            "--out",
+            &out,
+            "--fallback",
+            fallback,
+        ]
+        .map(str::to_owned)
+        .to_vec()
+    };
+    let refused = |fallback: &'static str| {
+        let a = args(fallback);
+        err_text(&a.iter().map(String::as_str).collect::<Vec<_>>())
+    };
+    // 20 Nm is within the shoulder's range, beyond the wrist's quarter of 38 Nm
+    let e = refused("20");
+    assert!(e.contains("fallback[6]") && e.contains("9.5"), "{e}");
+    let e = refused("1,2");
+    assert!(e.contains("--fallback") && e.contains("2 values"), "{e}");
+    let e = refused("0");
+    assert!(e.contains("fallback[1]"), "{e}");
+    assert!(
+        !std::path::Path::new(&out).exists(),
+        "a refused calibration wrote {out}"
+    );
+}

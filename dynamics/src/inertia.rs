@@ -1,6 +1,6 @@
 //! Inertial parameters of one rigid body in its link frame (paper eqs. 5, 9-10, 18, 20).
 
-use nalgebra::{Matrix3, SVector, Vector3};
+use nalgebra::{Matrix3, Matrix4, SVector, Vector3};
 
 use crate::error::{DynamicsError, check_finite_slice};
 use crate::spatial::{Force, Motion};
@@ -137,6 +137,32 @@ impl InertialParameters {
             first_moment: translation * self.mass + h_rot,
             inertia_origin: Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz),
         }
+    }
+
+    /// The pseudo-inertia [[Σ, h], [hᵀ, m]]: Σ = ½tr(J)·1 − J the second moment about the
+    /// link origin (kg·m²), h = m·c (kg·m), m (kg). Positive definite exactly when the ten
+    /// parameters are a realisable rigid body (Wensing, Kim & Slotine 2017).
+    pub fn pseudo_inertia(&self) -> Matrix4<f64> {
+        let j = &self.inertia_origin;
+        let sigma = Matrix3::identity() * (0.5 * j.trace()) - j;
+        let mut p = Matrix4::zeros();
+        p.fixed_view_mut::<3, 3>(0, 0).copy_from(&sigma);
+        for i in 0..3 {
+            p[(i, 3)] = self.first_moment[i];
+            p[(3, i)] = self.first_moment[i];
+        }
+        p[(3, 3)] = self.mass;
+        p
+    }
+
+    /// The smallest eigenvalue of [`InertialParameters::pseudo_inertia`], kg·m² (> 0: a
+    /// realisable body).
+    pub fn smallest_pseudo_eigenvalue(&self) -> f64 {
+        self.pseudo_inertia()
+            .symmetric_eigenvalues()
+            .iter()
+            .copied()
+            .fold(f64::INFINITY, f64::min)
     }
 
     /// Checks that the parameters describe a real rigid body: finite, mass ≥ 0, symmetric tensor,

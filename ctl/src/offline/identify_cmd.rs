@@ -53,7 +53,7 @@ fn report<const N: usize>(id: &Identification<N>, out_path: &str) -> String {
     };
     let _ = writeln!(
         s,
-        "  ridge weight λ = {weight} (chosen on {} held-out contiguous blocks); condition number {:.1} (column-normalised, unpenalised)",
+        "  ridge weight λ = {weight}, chosen on {} held-out groups of segments ranked by speed (each predicted by a fit that never saw its speed): the best no worse than the nominal model on any joint; condition number {:.1} (column-normalised, unpenalised)",
         fit.folds, fit.condition_number
     );
     let header: Vec<String> = (1..=N).map(|j| format!("{:>8}", format!("J{j}"))).collect();
@@ -88,7 +88,10 @@ fn report<const N: usize>(id: &Identification<N>, out_path: &str) -> String {
     );
     s += &row("identified, in sample", "Nm", &fit.residual_peak, 3);
     s += &row("identified, held out", "Nm", &fit.heldout_peak, 3);
-    let _ = writeln!(s, "  joint terms (± 1σ)");
+    let _ = writeln!(
+        s,
+        "  joint terms (± 1σ; friction ≥ 0: a bound held at 0 has σ 0)"
+    );
     s += &row("offset", "Nm", &f.joint.offset, 3);
     s += &row("  ± 1σ", "Nm", &f.joint.offset_std, 3);
     s += &row("viscous", "Nm·s/rad", &f.joint.viscous, 3);
@@ -128,7 +131,19 @@ fn report<const N: usize>(id: &Identification<N>, out_path: &str) -> String {
             nom
         );
     }
-    for w in warnings(f) {
+    let eig: Vec<f64> = id
+        .model
+        .corrected_model()
+        .links()
+        .iter()
+        .map(|l| l.smallest_pseudo_eigenvalue())
+        .collect();
+    let _ = writeln!(
+        s,
+        "  links as written (nominal + δπ on the base columns), smallest pseudo-inertia eigenvalue (> 0: a rigid body)"
+    );
+    s += &row("L1..L7", "kg·m²", &eig, 4);
+    for w in warnings(&id.model) {
         let _ = writeln!(s, "  WARNING: {w}");
     }
     let _ = writeln!(
@@ -140,8 +155,10 @@ fn report<const N: usize>(id: &Identification<N>, out_path: &str) -> String {
 
 /// What makes an identified arm suspect on motion it has not seen: a joint worse than the
 /// nominal model on held-out data, negative friction (not a physical arm, and its error grows
-/// with speed beyond the logs), no regularisation at all.
-fn warnings(f: &dynamics::IdentifiedFile) -> Vec<String> {
+/// with speed beyond the logs; the identification never writes it, a file may hold it), no
+/// regularisation at all; and links that are no rigid body as written.
+fn warnings<const N: usize>(model: &dynamics::IdentifiedModel<N>) -> Vec<String> {
+    let f = model.file();
     let fit = &f.fit;
     let joints = |pick: &dyn Fn(usize) -> Option<String>| -> Vec<String> {
         (0..f.joints).filter_map(pick).collect()
@@ -171,9 +188,20 @@ fn warnings(f: &dynamics::IdentifiedFile) -> Vec<String> {
             ));
         }
     }
+    let bodies: Vec<String> = model
+        .non_realisable_links()
+        .iter()
+        .map(|(l, e)| format!("L{} ({e:.3e} kg·m²)", l + 1))
+        .collect();
+    if !bodies.is_empty() {
+        out.push(format!(
+            "the links as written are no rigid body on {} (pseudo-inertia not positive definite): the base coefficients, hence the torques along motion, are the fit's; a per-link reading (one link's mass or inertia) is not physical",
+            bodies.join(", ")
+        ));
+    }
     if fit.ridge_weight == 0.0 {
         out.push(
-            "the unregularised fit was chosen (λ = 0): held out on blocks of the same motion it measures repeatability, not how it does on other motion"
+            "the unregularised fit was chosen (λ = 0): nothing pulls a coefficient the logs do not excite toward the nominal model"
                 .to_owned(),
         );
     }
@@ -214,7 +242,14 @@ fn identify_n<const N: usize>(
             "identified": id.model.file(),
             "cross_validation": id.cv,
             "joint_weights": id.weights,
-            "warnings": warnings(id.model.file()),
+            "warnings": warnings(&id.model),
+            "smallest_pseudo_inertia_eigenvalue": id
+                .model
+                .corrected_model()
+                .links()
+                .iter()
+                .map(|l| l.smallest_pseudo_eigenvalue())
+                .collect::<Vec<_>>(),
         });
         writeln!(out, "{}", serde_json::to_string_pretty(&obj)?)?;
     } else {

@@ -205,6 +205,19 @@ impl<const N: usize> IdentifiedModel<N> {
         &self.corrected
     }
 
+    /// The links of [`IdentifiedModel::corrected_model`] that are no rigid body: (link index
+    /// 0-based, smallest eigenvalue of its pseudo-inertia, kg·m²) where that eigenvalue is not
+    /// positive. Empty for a physically consistent arm.
+    pub fn non_realisable_links(&self) -> Vec<(usize, f64)> {
+        self.corrected
+            .links()
+            .iter()
+            .enumerate()
+            .map(|(l, body)| (l, body.smallest_pseudo_eigenvalue()))
+            .filter(|(_, e)| e.is_nan() || *e <= 0.0)
+            .collect()
+    }
+
     /// offset + viscous·q̇ + coulomb·tanh(q̇/v0) for joint velocities `qd` (rad/s), Nm: what the
     /// torque sensors read beyond the rigid-body torque (allocation-free).
     pub fn joint_torque(&self, qd: &SVector<f64, N>) -> SVector<f64, N> {

@@ -11,27 +11,35 @@
 //!   min (1/n)·Σ w_j r² + λ·Σ_k D_k²·δπ_k²,   D_k² = (1/n)·Σ w_j·Y_base,jk²,
 //!
 //! i.e. a Gaussian prior δπ ~ N(0, ·) centred on the nominal coefficients whose weight counts
-//! every coefficient by the torque it makes on these data. λ is chosen on held-out data:
-//! k-fold cross-validation over contiguous time blocks, λ from 0 (free fit) through 10⁻⁸…10²
-//! to ∞ (offsets and friction only). The report gives the held-out residual of each.
+//! every coefficient by the torque it makes on these data; and v_j, c_j ≥ 0 (friction takes
+//! energy out of the arm: a negative coefficient is model error fitted as physics, and it
+//! grows with speed beyond the data). λ is chosen on held-out segments of other speeds
+//! ([`folds`]): from 0 (free fit) through 10⁻⁸…10² to ∞ (offsets and friction only), the
+//! best held-out score among the weights no worse than the nominal model on any joint
+//! ([`select`]). The report gives the held-out residual of each.
 
+mod folds;
 mod normal;
+mod rows;
 mod samples;
+mod select;
 
 pub use samples::{Piece, Preparation, piece_of, prepare};
 
 use dynamics::identified::{
     BaseTerms, FitSummary, IDENTIFIED_FORMAT, IdentifiedFile, JointTerms, ModelErrorTerms,
-    base_regressor, identification_base, link_parameter_vector,
+    identification_base, link_parameter_vector,
 };
-use dynamics::{Data, IdentifiedModel, Model, rnea};
+use dynamics::{IdentifiedModel, Model};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 use crate::error::EstimatorError;
 use crate::model_error::{Ar1Gram, correlation_time};
 use crate::motion::RecordedLog;
-use normal::{Normal, condition_number, inverse, solve};
+use normal::{Normal, condition_number, inverse, solve_non_negative};
+use rows::{JOINT_TERMS, for_each_row};
+use select::{JOINT_TERM_RIDGE, Ridge, choose};
 
 /// Default v0 of the Coulomb term tanh(q̇/v0), rad/s: the sign is smooth over ±0.02 rad/s, where
 /// a zero-phase-filtered velocity is still dominated by its filter, not by the joint's stiction.
@@ -44,15 +52,13 @@ pub const DEFAULT_DERIVATIVE_CUTOFF_HZ: f64 = 5.0;
 /// Default largest sample rate fitted, Hz (faster logs are thinned: the filtered signals carry
 /// nothing above a few Hz).
 pub const DEFAULT_MAX_RATE_HZ: f64 = 200.0;
-/// Relative ridge on the offsets and friction (numerical only: they are not pulled anywhere).
-const JOINT_TERM_RIDGE: f64 = 1e-9;
 
 /// Options of [`identify`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct IdentifyOptions {
     /// v0 of the Coulomb term, rad/s.
     pub coulomb_velocity: f64,
-    /// Cross-validation folds (contiguous time blocks), 2…20.
+    /// Cross-validation folds (segments grouped by speed, [`folds`]), 2…20.
     pub folds: usize,
     /// Use a log's own q̇ and q̈ when it has both columns (otherwise derive them).
     pub recorded_derivatives: bool,
@@ -102,47 +108,6 @@ pub struct Identification<const N: usize> {
     pub preparation: Preparation,
     /// Joint weights used, 1/Nm².
     pub weights: Vec<f64>,
-}
-
-/// λ candidates: 0, 10^(−8 + k/4) for k = 0..=40, and ∞ (`None`).
-fn candidates() -> Vec<Option<f64>> {
-    let mut c = vec![Some(0.0)];
-    c.extend((0..=40).map(|k| Some(10f64.powf(-8.0 + 0.25 * f64::from(k)))));
-    c.push(None);
-    c
-}
-
-/// Calls `row(sample, piece, t, joint, a, y)` for every joint of every sample: `a` the design
-/// row [Y_base,j | e_j | q̇_j e_j | tanh(q̇_j/v0) e_j], `y` = τ_j − τ_nom,j (Nm).
-fn for_each_row<const N: usize>(
-    model: &Model<N>,
-    columns: &[usize],
-    v0: f64,
-    pieces: &[Piece<N>],
-    mut row: impl FnMut(usize, usize, f64, usize, &[f64], f64),
-) {
-    let mut data = Data::new(model);
-    let p = columns.len();
-    let mut a = vec![0.0; p + 3 * N];
-    let mut sample = 0;
-    for (i, piece) in pieces.iter().enumerate() {
-        for k in 0..piece.len() {
-            let (q, qd, qdd) = (&piece.q[k], &piece.qd[k], &piece.qdd[k]);
-            let y = base_regressor(model, &mut data, columns, q, qd, qdd);
-            let nominal = rnea(model, &mut data, q, qd, qdd);
-            for j in 0..N {
-                a.iter_mut().for_each(|v| *v = 0.0);
-                for c in 0..p {
-                    a[c] = y[(j, c)];
-                }
-                a[p + j] = 1.0;
-                a[p + N + j] = qd[j];
-                a[p + 2 * N + j] = (qd[j] / v0).tanh();
-                row(sample, i, piece.t[k], j, &a, piece.tau[k][j] - nominal[j]);
-            }
-            sample += 1;
-        }
-    }
 }
 
 /// The regularised normal equations were singular (a regressor with no motion in it).
@@ -200,14 +165,14 @@ pub fn identify<const N: usize>(
     let base = identification_base(model);
     let columns = base.independent.clone();
     let p = columns.len();
-    let k = p + 3 * N;
+    let k = p + JOINT_TERMS * N;
     let v0 = options.coulomb_velocity;
-    let fold_of = |sample: usize| (sample * folds / total).min(folds - 1);
+    let fold_of = folds::speed_folds(&pieces, folds::DEFAULT_SEGMENT_S, folds);
     let mut sums = Normal::new(k, folds, N);
     let mut finite = true;
     for_each_row(model, &columns, v0, &pieces, |s, _, _, j, a, y| {
         finite &= y.is_finite() && a.iter().all(|v| v.is_finite());
-        sums.add(fold_of(s), j, a, y);
+        sums.add(fold_of[s], j, a, y);
     });
     if !finite {
         return Err(EstimatorError::NotFinite {
@@ -216,12 +181,14 @@ pub fn identify<const N: usize>(
         });
     }
     let joint_terms: Vec<usize> = (p..k).collect();
-    let all: Vec<usize> = (0..k).collect();
+    // viscous and Coulomb friction never negative
+    let friction: Vec<usize> = (p + N..k).collect();
     // joint weights from the fit without δπ (unweighted)
     let ones = vec![1.0; N];
     let (g1, h1) = sums.weighted(&ones, None);
     let tiny = DVector::from_fn(k, |c, _| JOINT_TERM_RIDGE * g1[(c, c)].max(1e-12));
-    let x0 = solve(&g1, &h1, &tiny, &joint_terms).ok_or_else(singular)?;
+    let (x0, _) =
+        solve_non_negative(&g1, &h1, &tiny, &joint_terms, &friction).ok_or_else(singular)?;
     let weights: Vec<f64> = (0..N)
         .map(|j| {
             let var = sums.sse(None, j, &x0) / total as f64;
@@ -229,73 +196,27 @@ pub fn identify<const N: usize>(
         })
         .collect();
     let (g, h) = sums.weighted(&weights, None);
-    let scale: Vec<f64> = (0..k).map(|c| g[(c, c)] / total as f64).collect();
-    let floor = scale.iter().copied().fold(0.0, f64::max) * 1e-12;
-    let penalty = |lambda: Option<f64>, rows: usize| -> DVector<f64> {
-        DVector::from_fn(k, |c, _| {
-            let w = if c < p {
-                lambda.unwrap_or(0.0).max(JOINT_TERM_RIDGE)
-            } else {
-                JOINT_TERM_RIDGE
-            };
-            w * scale[c].max(floor) * rows as f64
-        })
+    let ridge = Ridge {
+        sums: &sums,
+        weights: &weights,
+        p,
+        friction,
+        scale: (0..k).map(|c| g[(c, c)] / total as f64).collect(),
     };
-    let free = |lambda: Option<f64>| if lambda.is_some() { &all } else { &joint_terms };
-    let mut cv = Vec::new();
-    for lambda in candidates() {
-        let mut sse = vec![0.0; N];
-        let mut ok = true;
-        for f in 0..folds {
-            let rows = total - sums.samples(Some(f));
-            let (gf, hf) = sums.weighted(&weights, Some(f));
-            match solve(&gf, &hf, &penalty(lambda, rows), free(lambda)) {
-                Some(x) => (0..N).for_each(|j| sse[j] += sums.sse(Some(f), j, &x)),
-                None => ok = false,
-            }
-        }
-        let score = if ok {
-            (0..N).map(|j| weights[j] * sse[j]).sum::<f64>()
-        } else {
-            f64::NAN
-        };
-        cv.push(CvPoint {
-            weight: lambda,
-            heldout_rms: sse
-                .iter()
-                .map(|s| {
-                    if ok {
-                        (s / total as f64).sqrt()
-                    } else {
-                        f64::NAN
-                    }
-                })
-                .collect(),
-            score,
-        });
-    }
-    let chosen = cv
-        .iter()
-        .filter(|c| c.score.is_finite())
-        .min_by(|a, b| a.score.total_cmp(&b.score))
-        .map(|c| c.weight)
-        .ok_or_else(singular)?;
-    let pen = penalty(chosen, total);
-    let x = solve(&g, &h, &pen, free(chosen)).ok_or_else(singular)?;
+    let cv = ridge.curve();
+    let zero = DVector::zeros(k);
+    let in_sample = |x: &DVector<f64>| -> Vec<f64> {
+        (0..N)
+            .map(|j| (sums.sse(None, j, x) / total as f64).sqrt())
+            .collect()
+    };
+    let nominal_rms = in_sample(&zero);
+    let chosen = choose(&cv, &nominal_rms).ok_or_else(singular)?;
+    let pen = ridge.penalty(chosen, total);
+    let (x, active) = ridge.fit(&g, &h, chosen, total).ok_or_else(singular)?;
     // the held-out residual series at the chosen λ: its RMS and correlation time are the
     // model error later estimates carry
-    let fold_fits: Vec<DVector<f64>> = (0..folds)
-        .map(|f| {
-            let (gf, hf) = sums.weighted(&weights, Some(f));
-            solve(
-                &gf,
-                &hf,
-                &penalty(chosen, total - sums.samples(Some(f))),
-                free(chosen),
-            )
-            .unwrap_or_else(|| x.clone())
-        })
-        .collect();
+    let fold_fits = ridge.fold_fits(chosen).ok_or_else(singular)?;
     let mut times = Vec::with_capacity(total);
     let mut starts = Vec::new();
     let mut heldout: Vec<Vec<f64>> = vec![Vec::with_capacity(total); N];
@@ -311,7 +232,7 @@ pub fn identify<const N: usize>(
             }
             times.push(t);
         }
-        let xf = &fold_fits[fold_of(s)];
+        let xf = &fold_fits[fold_of[s]];
         let fit: f64 = a.iter().zip(xf.iter()).map(|(u, v)| u * v).sum();
         heldout[j].push(y - fit);
         let fit_all: f64 = a.iter().zip(x.iter()).map(|(u, v)| u * v).sum();
@@ -329,7 +250,8 @@ pub fn identify<const N: usize>(
         .map(|r| correlation_time(&times, r, &starts))
         .collect();
     // covariance: sandwich of the weighted ridge fit with each joint's correlated model error
-    let bread = inverse(&g, &pen, free(chosen)).ok_or_else(singular)?;
+    // a friction coefficient held at zero is a bound, not an estimate: no variance
+    let bread = inverse(&g, &pen, &active).ok_or_else(singular)?;
     let mut grams: Vec<Ar1Gram> = (0..N).map(|j| Ar1Gram::new(k, taus[j])).collect();
     let mut last_piece = usize::MAX;
     let mut new_piece = false;
@@ -352,12 +274,6 @@ pub fn identify<const N: usize>(
         .iter()
         .map(|p| p.t.last().copied().unwrap_or(0.0) - p.t.first().copied().unwrap_or(0.0))
         .sum();
-    let zero = DVector::zeros(k);
-    let in_sample = |x: &DVector<f64>| -> Vec<f64> {
-        (0..N)
-            .map(|j| (sums.sse(None, j, x) / total as f64).sqrt())
-            .collect()
-    };
     let rms_at = |w: Option<f64>| {
         cv.iter()
             .find(|c| c.weight == w)
@@ -395,7 +311,7 @@ pub fn identify<const N: usize>(
             ridge_weight: chosen.unwrap_or(f64::INFINITY),
             folds,
             condition_number: condition_number(&g),
-            residual_rms_nominal: in_sample(&zero),
+            residual_rms_nominal: nominal_rms,
             residual_rms: in_sample(&x),
             heldout_rms,
             heldout_rms_joint_terms: rms_at(None),

@@ -113,6 +113,36 @@ pub(crate) fn solve(
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
+/// [`solve`] with the columns `non_negative` kept ≥ 0: a column that comes out negative is held
+/// at zero and the others solved again, the most negative (by the torque it makes) first, until
+/// none is. Friction takes energy out of an arm: a negative coefficient is model error fitted
+/// as physics, and it grows with speed beyond the data. Returns the solution and the columns
+/// left free.
+pub(crate) fn solve_non_negative(
+    g: &DMatrix<f64>,
+    h: &DVector<f64>,
+    penalty: &DVector<f64>,
+    free: &[usize],
+    non_negative: &[usize],
+) -> Option<(DVector<f64>, Vec<usize>)> {
+    let mut free = free.to_vec();
+    loop {
+        let x = solve(g, h, penalty, &free)?;
+        let worst = free
+            .iter()
+            .copied()
+            .filter(|c| non_negative.contains(c) && x[*c] < 0.0)
+            .min_by(|a, b| {
+                let torque = |c: usize| x[c] * g[(c, c)].max(0.0).sqrt();
+                torque(*a).total_cmp(&torque(*b))
+            });
+        match worst {
+            None => return Some((x, free)),
+            Some(c) => free.retain(|k| *k != c),
+        }
+    }
+}
+
 /// (G + diag(penalty))⁻¹ on the columns `free` (others zero), for the covariance.
 pub(crate) fn inverse(
     g: &DMatrix<f64>,

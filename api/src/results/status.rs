@@ -116,8 +116,8 @@ pub struct ArmCalibration {
     pub duration_s: f64,
     /// Residual RMS of the nominal model on those recordings, Nm per joint.
     pub residual_rms_nominal: Vec<f64>,
-    /// Held-out residual RMS of the identified model (cross-validation), Nm per joint: what it
-    /// still gets wrong on data it was not fitted to.
+    /// Held-out residual RMS of the identified model (segments of other speeds than the fit
+    /// saw), Nm per joint: what it still gets wrong on motion it was not fitted to.
     pub heldout_rms: Vec<f64>,
     /// Per-joint torque offset the service subtracts, Nm.
     pub offset: Vec<f64>,

@@ -89,7 +89,8 @@ pub struct FitSummary {
     /// Ridge weight λ chosen on held-out blocks (∞: offsets and friction only) (penalty λ·Σ(D_k δπ_k)², D_k the RMS torque of
     /// base coefficient k per unit over the data).
     pub ridge_weight: f64,
-    /// Contiguous time blocks of the cross-validation.
+    /// Folds of the cross-validation (segments grouped by speed; contiguous time blocks in
+    /// files written before).
     pub folds: usize,
     /// Condition number of the unpenalised, column-normalised regressor.
     pub condition_number: f64,

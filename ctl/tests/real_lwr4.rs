@@ -157,7 +157,8 @@ fn calibrate(logs: &[&str], arm: &str, out: &str, edge: &str) -> (serde_json::Va
 /// segments), whole or without the recordings' filter edges, every joint's threshold at rest
 /// and over the whole schedule is at most the paper's constant 6 Nm (the scheduled envelope
 /// is capped at the constant the logs support — or, where they support none below 6 Nm, at
-/// the stated 6 Nm, said in a warning), none at the service's ceiling, its own recording never
+/// the stated 6 Nm, said in a warning: J5, whose heavy-tailed maxima sit at its velocity
+/// reversals, the test below), none at the service's ceiling, its own recording never
 /// crossed, the minimum detectable force on every link at or below the constant's; and run 2,
 /// which the run-1 fits never saw, is never crossed.
 #[test]
@@ -208,9 +209,9 @@ fn calibrated_on_run_1_or_on_runs_1_and_2_every_threshold_is_at_most_6_nm_and_ru
                 );
             }
         }
-        // J5's heavy-tailed scale (its maxima sit at its velocity reversals, the test below) is
-        // reported; its cap is what the raw maxima support, or the stated constant (above)
+        // the reversals' heavy tail is reported, and held at the stated constant
         assert!(heavy(&fit).contains(&5), "{case}: {fit}");
+        assert_eq!(fit["joints"][4]["cap_source"], "fallback", "{case}");
         if logs.len() == 1 {
             assert_never_crossed(&monitor_run_2(&arm, &thresholds, edge));
         }
@@ -576,20 +577,60 @@ fn broken_or_foreign_files_are_refused_naming_the_cause() {
     );
 }
 
-/// Issue 33: identified on runs 1 + 2 together, the fit once put model error into negative
-/// viscous friction (J5 −0.885 Nm·s/rad), which grows with speed beyond the logs. The written
-/// file now holds no negative friction coefficient; the report says which links, as written,
-/// are no rigid body (their pseudo-inertia), in text and in `--json`, naming each.
+/// Issue 33: identified on runs 1 + 2 together, the fit puts model error into negative
+/// friction, which grows with speed beyond the logs; the report says so loudly, naming the
+/// joints, and does not on a joint it fits with friction ≥ 0. With `--non-negative-friction`
+/// the written file holds no negative coefficient and nothing is said of friction. Either
+/// way the report says which links, as written, are no rigid body (their pseudo-inertia), in
+/// text and in `--json`, naming each.
 #[test]
-fn the_identification_writes_no_negative_friction_and_names_the_links_that_are_no_rigid_body() {
+fn the_identification_warns_of_negative_friction_and_of_links_that_are_no_rigid_body() {
     let dir = Dir::new("warnings");
     let out = dir.file("arm12.toml");
     let (run1, run2) = (run("flobaroid-run1.csv"), run("flobaroid-run2.csv"));
-    let text = fri_ctl(&["identify", "--log", &run1, "--log", &run2, "--out", &out]);
-    assert!(text.status.success(), "{text:?}");
-    let text = String::from_utf8_lossy(&text.stdout).into_owned();
-    assert!(!text.contains("negative"), "{text}");
-    assert!(text.contains("ranked by speed"), "{text}");
+    let both = ["--log", &run1, "--log", &run2, "--out", &out];
+    let text = |extra: &[&str]| {
+        let args: Vec<&str> = ["identify"]
+            .iter()
+            .chain(&both)
+            .chain(extra)
+            .copied()
+            .collect();
+        let o = fri_ctl(&args);
+        assert!(o.status.success(), "{o:?}");
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    let json = |extra: &[&str]| {
+        let args: Vec<&str> = ["identify"]
+            .iter()
+            .chain(&both)
+            .chain(extra)
+            .chain(&["--json"])
+            .copied()
+            .collect();
+        ok_json(&args)
+    };
+    let free = text(&[]);
+    let line = free
+        .lines()
+        .find(|l| l.contains("WARNING: negative viscous friction"))
+        .unwrap_or_else(|| panic!("no friction warning: {free}"));
+    let file = json(&[]);
+    let viscous = file["identified"]["joint"]["viscous"].as_array().unwrap();
+    for (j, v) in viscous.iter().enumerate() {
+        let named = line.contains(&format!("J{} (", j + 1));
+        assert_eq!(named, v.as_f64().unwrap() < 0.0, "J{}: {line}", j + 1);
+    }
+    // the same words for a tool reading `--json`
+    let warnings = file["warnings"].as_array().unwrap();
+    assert!(
+        warnings.iter().any(|w| line.ends_with(w.as_str().unwrap())),
+        "{warnings:?}"
+    );
+
+    let physical = text(&["--non-negative-friction"]);
+    assert!(!physical.contains("negative viscous"), "{physical}");
+    assert!(physical.contains("friction kept ≥ 0"), "{physical}");
     let written = std::fs::read_to_string(&out).unwrap();
     let arm = dynamics::IdentifiedModel::<7>::from_toml_str(&dynamics::lwr4(), &written).unwrap();
     let joint = &arm.file().joint;
@@ -601,9 +642,7 @@ fn the_identification_writes_no_negative_friction_and_names_the_links_that_are_n
             .all(|v| *v >= 0.0),
         "{joint:?}"
     );
-    let file = ok_json(&[
-        "identify", "--log", &run1, "--log", &run2, "--out", &out, "--json",
-    ]);
+    let file = json(&["--non-negative-friction"]);
     let eig: Vec<f64> = file["smallest_pseudo_inertia_eigenvalue"]
         .as_array()
         .unwrap()
@@ -617,19 +656,13 @@ fn the_identification_writes_no_negative_friction_and_names_the_links_that_are_n
         .iter()
         .map(|w| w.as_str().unwrap())
         .collect();
-    let line = warnings.iter().find(|w| w.contains("no rigid body"));
+    let bodies = warnings.iter().find(|w| w.contains("no rigid body"));
     for (l, e) in eig.iter().enumerate() {
-        let named = line.is_some_and(|w| w.contains(&format!("L{} (", l + 1)));
+        let named = bodies.is_some_and(|w| w.contains(&format!("L{} (", l + 1)));
         assert_eq!(named, *e <= 0.0, "L{}: {e} {warnings:?}", l + 1);
-        assert!(
-            text.contains(&format!("{e:.4}")) || named,
-            "L{}: {text}",
-            l + 1
-        );
     }
-    // the text report carries the same warning
-    if let Some(w) = line {
-        assert!(text.contains(&format!("WARNING: {w}")), "{text}");
+    if let Some(w) = bodies {
+        assert!(physical.contains(&format!("WARNING: {w}")), "{physical}");
     }
 }
 

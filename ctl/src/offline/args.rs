@@ -235,9 +235,14 @@ pub struct IdentifyArgs {
     /// v0 of the smooth Coulomb sign tanh(q̇/v0), rad/s.
     #[arg(long, default_value_t = estimator::identify::DEFAULT_COULOMB_VELOCITY)]
     pub coulomb_velocity: f64,
-    /// Cross-validation folds (contiguous time blocks) that choose the ridge weight, 2 to 20.
+    /// Cross-validation folds (2.5 s segments grouped by speed) that choose the ridge weight,
+    /// 2 to 20.
     #[arg(long, default_value_t = estimator::identify::DEFAULT_FOLDS)]
     pub folds: usize,
+    /// Keep the viscous and Coulomb friction coefficients ≥ 0 (a physical arm; see
+    /// docs/estimation.md for what it costs on the real LWR 4+ runs).
+    #[arg(long)]
+    pub non_negative_friction: bool,
     /// Derive q̇ and q̈ from q even when the log has them.
     #[arg(long)]
     pub derive: bool,

@@ -90,7 +90,12 @@ fn report<const N: usize>(id: &Identification<N>, out_path: &str) -> String {
     s += &row("identified, held out", "Nm", &fit.heldout_peak, 3);
     let _ = writeln!(
         s,
-        "  joint terms (± 1σ; friction ≥ 0: a bound held at 0 has σ 0)"
+        "  joint terms (± 1σ{})",
+        if id.options.non_negative_friction {
+            "; friction kept ≥ 0: a coefficient held at 0 has σ 0"
+        } else {
+            "; friction free in sign: --non-negative-friction keeps it ≥ 0"
+        }
     );
     s += &row("offset", "Nm", &f.joint.offset, 3);
     s += &row("  ± 1σ", "Nm", &f.joint.offset_std, 3);
@@ -221,6 +226,7 @@ fn identify_n<const N: usize>(
     let names: Vec<String> = a.log.iter().map(|p| p.display().to_string()).collect();
     let options = IdentifyOptions {
         coulomb_velocity: a.coulomb_velocity,
+        non_negative_friction: a.non_negative_friction,
         folds: a.folds,
         recorded_derivatives: !a.derive,
         order: a.order,

@@ -70,6 +70,9 @@ pub struct IdentifyArgs {
     /// Output format (`--json`: the fit as one JSON object, as `offline identify --json`).
     #[command(flatten)]
     pub output: JsonFlag,
+    /// Keep the viscous and Coulomb friction coefficients ≥ 0 (as `offline identify`).
+    #[arg(long)]
+    pub non_negative_friction: bool,
 }
 
 /// `--amplitude-deg`: the service's `excite_deg` range, named as the flag.
@@ -155,6 +158,7 @@ pub(super) fn run(a: &IdentifyArgs, socket: &std::path::Path, out: &mut Stdout) 
         robot: RobotChoice::Lwr4,
         coulomb_velocity: estimator::identify::DEFAULT_COULOMB_VELOCITY,
         folds: estimator::identify::DEFAULT_FOLDS,
+        non_negative_friction: a.non_negative_friction,
         derive: false,
         cutoff_hz: estimator::identify::DEFAULT_DERIVATIVE_CUTOFF_HZ,
         order: 4,

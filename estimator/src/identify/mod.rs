@@ -11,9 +11,11 @@
 //!   min (1/n)·Σ w_j r² + λ·Σ_k D_k²·δπ_k²,   D_k² = (1/n)·Σ w_j·Y_base,jk²,
 //!
 //! i.e. a Gaussian prior δπ ~ N(0, ·) centred on the nominal coefficients whose weight counts
-//! every coefficient by the torque it makes on these data; and v_j, c_j ≥ 0 (friction takes
-//! energy out of the arm: a negative coefficient is model error fitted as physics, and it
-//! grows with speed beyond the data). λ is chosen on held-out segments of other speeds
+//! every coefficient by the torque it makes on these data; with
+//! [`IdentifyOptions::non_negative_friction`], v_j, c_j ≥ 0 (friction takes energy out of the
+//! arm: a negative coefficient is model error fitted as physics, and it grows with speed beyond
+//! the data; not yet the default: docs/estimation.md says what it costs on the real runs).
+//! λ is chosen on held-out segments of other speeds
 //! ([`folds`]): from 0 (free fit) through 10⁻⁸…10² to ∞ (offsets and friction only), the
 //! best held-out score among the weights no worse than the nominal model on any joint
 //! ([`select`]). The report gives the held-out residual of each.
@@ -58,6 +60,9 @@ pub const DEFAULT_MAX_RATE_HZ: f64 = 200.0;
 pub struct IdentifyOptions {
     /// v0 of the Coulomb term, rad/s.
     pub coulomb_velocity: f64,
+    /// Keep the viscous and Coulomb coefficients ≥ 0.
+    #[serde(default)]
+    pub non_negative_friction: bool,
     /// Cross-validation folds (segments grouped by speed, [`folds`]), 2…20.
     pub folds: usize,
     /// Use a log's own q̇ and q̈ when it has both columns (otherwise derive them).
@@ -76,6 +81,7 @@ impl Default for IdentifyOptions {
     fn default() -> Self {
         Self {
             coulomb_velocity: DEFAULT_COULOMB_VELOCITY,
+            non_negative_friction: false,
             folds: DEFAULT_FOLDS,
             recorded_derivatives: true,
             order: 4,
@@ -108,6 +114,8 @@ pub struct Identification<const N: usize> {
     pub preparation: Preparation,
     /// Joint weights used, 1/Nm².
     pub weights: Vec<f64>,
+    /// The options it ran with.
+    pub options: IdentifyOptions,
 }
 
 /// The regularised normal equations were singular (a regressor with no motion in it).
@@ -181,8 +189,12 @@ pub fn identify<const N: usize>(
         });
     }
     let joint_terms: Vec<usize> = (p..k).collect();
-    // viscous and Coulomb friction never negative
-    let friction: Vec<usize> = (p + N..k).collect();
+    // viscous and Coulomb friction never negative, when asked
+    let friction: Vec<usize> = if options.non_negative_friction {
+        (p + N..k).collect()
+    } else {
+        Vec::new()
+    };
     // joint weights from the fit without δπ (unweighted)
     let ones = vec![1.0; N];
     let (g1, h1) = sums.weighted(&ones, None);
@@ -327,5 +339,6 @@ pub fn identify<const N: usize>(
         cv,
         preparation,
         weights,
+        options: *options,
     })
 }

@@ -258,9 +258,12 @@ async fn the_daemons_results_decode_into_the_typed_results() {
         Command::ApplyPayload {
             mass: 1.5,
             com: [-0.0005, 0.0, 0.12],
+            // Not the mock's payload: forced, so that the typed refusal it overrode decodes too.
+            force: Some(true),
         },
     )
     .await;
+    assert!(p.forced_past.is_some(), "{p:?}");
     assert_eq!(p.payload.unwrap().com[0], -0.0005);
     let p: PayloadResult = typed(&mut c, Command::ClearPayload).await;
     assert!(p.payload.is_none());

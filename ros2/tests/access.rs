@@ -181,7 +181,8 @@ async fn unauthenticated_mode_names_the_participant_who_applied_the_payload_and_
             "--service",
             "apply_payload",
             "--mass",
-            "1.75",
+            // The flange is empty: the service's check applies only its true payload.
+            "0",
             "--domain",
             &d,
         ]),
@@ -199,7 +200,7 @@ async fn unauthenticated_mode_names_the_participant_who_applied_the_payload_and_
         tokio::time::sleep(Duration::from_millis(20)).await;
         s = common::status(&mut client).await;
     }
-    assert_eq!(s.payload.as_ref().map(|p| p.mass), Some(1.75), "{s:?}");
+    assert_eq!(s.payload.as_ref().map(|p| p.mass), Some(0.0), "{s:?}");
     assert!(
         matches!(&s.payload_origin, Some(Origin::Ros2 { participant: p, authenticated: false, .. }) if *p == participant),
         "{:?} vs {participant}",
@@ -240,7 +241,7 @@ async fn unauthenticated_mode_names_the_participant_who_applied_the_payload_and_
     let records = audit.finish().await;
     assert!(
         records.iter().any(
-            |r| matches!(r.change, Change::PayloadApplied { mass, .. } if mass == 1.75)
+            |r| matches!(r.change, Change::PayloadApplied { mass, .. } if mass == 0.0)
                 && matches!(&r.origin, Origin::Ros2 { participant: p, .. } if *p == participant)
         ),
         "{records:?}"

@@ -171,6 +171,7 @@ async fn python_mcap_reader_decodes_the_recording_as_the_csv_log_of_the_same_run
             Command::ApplyPayload {
                 mass: payload.0,
                 com: payload.1,
+                force: None,
             },
             |_, _| {},
         )

@@ -167,11 +167,11 @@ fn refused(p: &AppliedPayload, refusal: PayloadRefusal) -> OperatorError {
     let (what, todo) = match refusal {
         PayloadRefusal::Disagrees { .. } => (
             "does not agree with",
-            "check the payload's data or measure it (`estimate-payload`)",
+            "Check the payload's data or measure it (`estimate-payload`)",
         ),
         _ => (
             "cannot be checked against",
-            "let the arm rest, `tare` at this pose, and send it again",
+            "Let the arm rest (or `tare` at this pose) and send it again",
         ),
     };
     err(

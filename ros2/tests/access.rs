@@ -166,6 +166,12 @@ async fn unauthenticated_mode_names_the_participant_who_applied_the_payload_and_
     let mut config = common::service_config(dir.path(), "unauth");
     common::service_accepts_unauthenticated(&mut config);
     let service = InProcess::start(config.clone()).await.unwrap();
+    // A controller with an empty flange: the payload check (issue 34 item 5) needs the
+    // measured torques, and the topic cannot force.
+    let mut sim = mock_robot::SimulationConfig::default();
+    sim.payload.attached_at_start = false;
+    let robot = common::robot(sim, service.fri, None);
+    common::wait_connected(&service).await;
     let mut client = service.client().await.unwrap();
     let audit = common::AuditWatch::start(service.client().await.unwrap()).await;
     let domain = 151;
@@ -256,6 +262,8 @@ async fn unauthenticated_mode_names_the_participant_who_applied_the_payload_and_
         !records.iter().any(|r| r.change == Change::Disarmed),
         "{records:?}"
     );
+    robot.stop();
+    let _ = robot.join();
     service.stop().await.unwrap();
 }
 

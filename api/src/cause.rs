@@ -156,6 +156,13 @@ pub enum Cause {
         /// The bound.
         max: u32,
     },
+    /// `apply-payload`: the declared payload does not explain the static torques measured at
+    /// rest, or the check could not compare (the arm moves, no baseline, no measurement);
+    /// nothing was applied (`force` applies it, audited as weakening).
+    PayloadImplausible {
+        /// Why, with both figures.
+        refusal: crate::payload_check::PayloadRefusal,
+    },
     /// Thresholds fitted offline for another setup than this service's (`collision-install`):
     /// the residual they bound was computed at another controller period or on another arm
     /// model, so they would not bound this service's residual.

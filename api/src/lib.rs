@@ -16,6 +16,7 @@ pub mod ipc;
 pub mod monitor;
 pub mod origin;
 pub mod pattern;
+pub mod payload_check;
 pub mod protocol;
 pub mod results;
 pub mod schedule;

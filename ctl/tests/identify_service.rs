@@ -199,11 +199,19 @@ async fn identify_refuses_arguments_out_of_range_and_a_loaded_arm_before_anythin
         assert!(e.message.contains(names), "{cmd:?}: {e}");
     }
 
-    // A payload applied: the payload would be identified as the arm.
+    // A payload applied: the payload would be identified as the arm. The flange is empty, so
+    // the payload check refuses it (issue 34 item 5): forced, the state is what is under test.
     let q = status(&mut c).await["q"].clone();
     let out = fri_ctl(
         &h.socket,
-        &["apply-payload", "--mass", "1.5", "--com", "0,0,0.05"],
+        &[
+            "apply-payload",
+            "--mass",
+            "1.5",
+            "--com",
+            "0,0,0.05",
+            "--force",
+        ],
     )
     .await;
     assert!(out.status.success(), "{out:?}");

@@ -91,7 +91,7 @@ impl Handler for FakeService {
                 Ok(json!({"samples": 2, "around": Q}))
             }
             Request::EstimatePayload { .. } => Ok(estimate()),
-            Request::ApplyPayload { mass, com } => {
+            Request::ApplyPayload { mass, com, .. } => {
                 Ok(json!({"payload": {"mass": mass, "com": com, "frame": "7"}}))
             }
             Request::ClearPayload => Ok(json!({"payload": null})),

@@ -77,19 +77,22 @@ async fn fri_ctl_talks_to_the_running_service() {
     assert!(out.status.success(), "{out:?}");
     let status: Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(status["connected"], true);
-    let out = common::fri_ctl(
-        &socket,
-        &[
-            "apply-payload",
-            "--mass",
-            "1.5",
-            "--com",
-            "0,0.01,-0.02",
-            "--json",
-        ],
-    )
-    .await;
+    // Not what the simulated flange carries: refused with the per-joint figures (issue 34
+    // item 5), applied with --force and the refusal it overrode in the result.
+    let apply = ["apply-payload", "--mass", "1.5", "--com", "0,0.01,-0.02"];
+    let out = common::fri_ctl(&socket, &apply).await;
+    assert_eq!(out.status.code(), Some(64), "{out:?}");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("apply-payload refused") && stderr.contains("<- worst"),
+        "{stderr}"
+    );
+    let mut forced = apply.to_vec();
+    forced.extend(["--force", "--json"]);
+    let out = common::fri_ctl(&socket, &forced).await;
     assert!(out.status.success(), "{out:?}");
+    let result: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(result["forced_past"]["refusal"], "disagrees", "{result}");
     let out = common::fri_ctl(
         &socket,
         &["apply-payload", "--mass", "-1", "--com", "0,0,0"],
@@ -258,9 +261,12 @@ async fn the_daemons_results_decode_into_the_typed_results() {
         Command::ApplyPayload {
             mass: 1.5,
             com: [-0.0005, 0.0, 0.12],
+            // Not the mock's payload: forced, so that the typed refusal it overrode decodes too.
+            force: Some(true),
         },
     )
     .await;
+    assert!(p.forced_past.is_some(), "{p:?}");
     assert_eq!(p.payload.unwrap().com[0], -0.0005);
     let p: PayloadResult = typed(&mut c, Command::ClearPayload).await;
     assert!(p.payload.is_none());

@@ -173,6 +173,7 @@ fn weakens(change: &Change) -> bool {
         | Change::PayloadDeclaredUnknown { .. } => true,
         Change::HeldByService { cause, .. } => matches!(cause, StopCause::ObserverFault { .. }),
         Change::TareStored { loaded, .. } => loaded.is_some(),
+        Change::PayloadApplied { forced_past, .. } => forced_past.is_some(),
         Change::MonitorConfigured {
             weaker_than_configuration,
             ..
@@ -294,5 +295,18 @@ mod tests {
             file: "monitor.json".into(),
             weaker_than_configuration: vec!["report-only reaction".into()],
         }));
+        // A payload forced past its check weakens (it may hide contacts of the difference); a
+        // checked one does not.
+        let forced = |forced_past| Change::PayloadApplied {
+            mass: 3.9,
+            com: [0.0, 0.0, 0.119],
+            forced_past,
+        };
+        assert!(!weakens(&forced(None)));
+        assert!(weakens(&forced(Some(
+            fri_api::results::PayloadRefusal::NoBaseline {
+                reason: "no stored tare".into(),
+            }
+        ))));
     }
 }

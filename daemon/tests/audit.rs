@@ -78,6 +78,8 @@ async fn every_change_names_its_origin_operator_or_ros2_participant() {
         Command::ApplyPayload {
             mass: 1.5,
             com: [0.0, 0.0, 0.1],
+            // No controller to check against: the origin of the change is under test.
+            force: Some(true),
         },
         |_, _| {},
     )

@@ -172,6 +172,8 @@ async fn calibrated_thresholds_are_per_joint_follow_the_budget_and_survive_a_res
         Command::ApplyPayload {
             mass: 2.0,
             com: [0.0, 0.0, 0.1],
+            // Another payload than the calibration's is what is under test, not the check.
+            force: Some(true),
         },
     )
     .await

@@ -372,9 +372,16 @@ async fn estimate_payload_enters_the_mode_itself_when_the_residual_is_unexplaine
         );
         let com: [f64; 3] = serde_json::from_value(est["com"].clone()).unwrap();
         let mass = est["mass"].as_f64().unwrap();
-        call(&mut c, Command::ApplyPayload { mass, com })
-            .await
-            .unwrap();
+        call(
+            &mut c,
+            Command::ApplyPayload {
+                mass,
+                com,
+                force: None,
+            },
+        )
+        .await
+        .unwrap();
         let status = call(&mut c, Command::Status).await.unwrap();
         assert!(status["unknown_payload"].is_null(), "{status}");
         assert_eq!(status["stopped"], false, "{status}");

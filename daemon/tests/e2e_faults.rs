@@ -341,6 +341,7 @@ async fn a_resume_into_a_present_contact_says_the_arm_is_still_held() {
         Command::ApplyPayload {
             mass: truth.mass_kg,
             com,
+            force: None,
         },
     )
     .await

@@ -407,9 +407,16 @@ async fn declare_grasp_apply_and_a_contact_stops_the_arm() {
         "declared: the payload is tolerated"
     );
     // The payload applied: the mode ends in the same loop cycle.
-    call(&mut c, Command::ApplyPayload { mass, com })
-        .await
-        .unwrap();
+    call(
+        &mut c,
+        Command::ApplyPayload {
+            mass,
+            com,
+            force: None,
+        },
+    )
+    .await
+    .unwrap();
     let status = call(&mut c, Command::Status).await.unwrap();
     assert!(status["unknown_payload"].is_null(), "{status}");
     let e = call(

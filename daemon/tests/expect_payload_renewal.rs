@@ -75,6 +75,8 @@ async fn a_renewed_declaration_is_refused_and_end_and_declare_is_bounded() {
         Command::ApplyPayload {
             mass: 1.5,
             com: [0.0, 0.0, 0.1],
+            // No controller to check against: the count's reset is under test.
+            force: Some(true),
         },
     )
     .await

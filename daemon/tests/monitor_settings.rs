@@ -101,9 +101,12 @@ async fn settings_survive_a_restart_with_the_payload_they_were_set_for() {
     let dir = tempfile::tempdir().unwrap();
     let h = InProcess::start(config(dir.path())).await.unwrap();
     let mut c = h.client().await.unwrap();
+    // No controller: nothing to check the payload against, so forced (the settings' binding
+    // to the payload is under test).
     let apply = |mass| Command::ApplyPayload {
         mass,
         com: [0.0, 0.0, 0.119],
+        force: Some(true),
     };
     call::<serde_json::Value>(&mut c, apply(3.028))
         .await

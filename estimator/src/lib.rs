@@ -23,6 +23,8 @@
 //!   controller's period;
 //! - [`samples`]: static-sample CSV and validation; [`plausible`]: recorded values against the
 //!   robot model's limits; [`lsq`]: least squares with covariance;
+//! - [`payload_check`]: whether a declared payload explains the static torques measured at
+//!   rest (before `apply-payload` installs it);
 //! - [`verdict`]: whether an estimate means anything (significant mass, centre of mass within
 //!   reach of the flange, bounded uncertainty) and whether a tare sees a load;
 //! - [`basis`]: numerical gravity base parameters; [`filter`]: zero-phase Butterworth and
@@ -46,6 +48,7 @@ pub mod identify;
 pub mod lsq;
 pub mod model_error;
 pub mod motion;
+pub mod payload_check;
 pub mod plausible;
 pub mod poses;
 pub mod replay;

@@ -226,15 +226,25 @@ impl Operator {
         )
     }
 
-    /// Applies a payload of `mass` kg at `com` (m, frame 7) for `caller`.
+    /// Applies a payload of `mass` kg at `com` (m, frame 7) for `caller`, never forced: the
+    /// service's check against the measured torques decides (the ROS 2 message has no field
+    /// for `force`; a forced apply is the operator socket's).
     pub async fn apply_payload(
         &self,
         mass: f64,
         com: [f64; 3],
         caller: Ros2Caller,
     ) -> Result<PayloadResult, String> {
-        self.call(Command::ApplyPayload { mass, com }, Some(caller), |_| {})
-            .await
+        self.call(
+            Command::ApplyPayload {
+                mass,
+                com,
+                force: None,
+            },
+            Some(caller),
+            |_| {},
+        )
+        .await
     }
 }
 

@@ -166,6 +166,12 @@ async fn unauthenticated_mode_names_the_participant_who_applied_the_payload_and_
     let mut config = common::service_config(dir.path(), "unauth");
     common::service_accepts_unauthenticated(&mut config);
     let service = InProcess::start(config.clone()).await.unwrap();
+    // A controller with an empty flange: the payload check (issue 34 item 5) needs the
+    // measured torques, and the topic cannot force.
+    let mut sim = mock_robot::SimulationConfig::default();
+    sim.payload.attached_at_start = false;
+    let robot = common::robot(sim, service.fri, None);
+    common::wait_connected(&service).await;
     let mut client = service.client().await.unwrap();
     let audit = common::AuditWatch::start(service.client().await.unwrap()).await;
     let domain = 151;
@@ -181,7 +187,8 @@ async fn unauthenticated_mode_names_the_participant_who_applied_the_payload_and_
             "--service",
             "apply_payload",
             "--mass",
-            "1.75",
+            // The flange is empty: the service's check applies only its true payload.
+            "0",
             "--domain",
             &d,
         ]),
@@ -199,7 +206,7 @@ async fn unauthenticated_mode_names_the_participant_who_applied_the_payload_and_
         tokio::time::sleep(Duration::from_millis(20)).await;
         s = common::status(&mut client).await;
     }
-    assert_eq!(s.payload.as_ref().map(|p| p.mass), Some(1.75), "{s:?}");
+    assert_eq!(s.payload.as_ref().map(|p| p.mass), Some(0.0), "{s:?}");
     assert!(
         matches!(&s.payload_origin, Some(Origin::Ros2 { participant: p, authenticated: false, .. }) if *p == participant),
         "{:?} vs {participant}",
@@ -240,7 +247,7 @@ async fn unauthenticated_mode_names_the_participant_who_applied_the_payload_and_
     let records = audit.finish().await;
     assert!(
         records.iter().any(
-            |r| matches!(r.change, Change::PayloadApplied { mass, .. } if mass == 1.75)
+            |r| matches!(r.change, Change::PayloadApplied { mass, .. } if mass == 0.0)
                 && matches!(&r.origin, Origin::Ros2 { participant: p, .. } if *p == participant)
         ),
         "{records:?}"
@@ -255,6 +262,8 @@ async fn unauthenticated_mode_names_the_participant_who_applied_the_payload_and_
         !records.iter().any(|r| r.change == Change::Disarmed),
         "{records:?}"
     );
+    robot.stop();
+    let _ = robot.join();
     service.stop().await.unwrap();
 }
 

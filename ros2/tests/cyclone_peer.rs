@@ -225,6 +225,8 @@ async fn cyclone_peer_receives_joint_states_equal_to_the_truth_and_the_applied_p
             fri_api::protocol::Command::ApplyPayload {
                 mass: 2.5,
                 com: [0.0, 0.01, 0.1],
+                // The value is what the peer must receive, not the flange's (not checked).
+                force: Some(true),
             },
             |_, _| {},
         )

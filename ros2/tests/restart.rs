@@ -18,7 +18,16 @@ use fri_ros2::dds::{latched_qos, stream_qos};
 
 async fn apply_payload(client: &mut fri_api::client::Client, mass: f64, com: [f64; 3]) {
     let reply = client
-        .call(Command::ApplyPayload { mass, com }, |_, _| {})
+        // Forced: these values test persistence across restarts, not the check (the
+        // simulated flange carries no such payload).
+        .call(
+            Command::ApplyPayload {
+                mass,
+                com,
+                force: Some(true),
+            },
+            |_, _| {},
+        )
         .await
         .unwrap();
     assert!(reply.is_ok(), "{reply:?}");

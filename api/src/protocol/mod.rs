@@ -73,12 +73,17 @@ pub enum Command {
         #[serde(default)]
         apply: Option<bool>,
     },
-    /// Apply a payload (frame 7) to the observer and persist it.
+    /// Apply a payload (frame 7) to the observer and persist it, once its gravity torques agree
+    /// with the static torques measured at rest (`docs/collision-detection.md` §4.1).
     ApplyPayload {
         /// Mass, kg.
         mass: f64,
         /// Centre of mass in frame 7, m.
         com: [f64; 3],
+        /// Apply it even when the check refuses it (default false); the audit trail records
+        /// the refusal overridden as a weakening.
+        #[serde(default)]
+        force: Option<bool>,
     },
     /// Remove the applied payload (persisted).
     ClearPayload,

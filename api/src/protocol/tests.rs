@@ -18,9 +18,30 @@ fn parses_commands_with_and_without_arguments() {
         r.command,
         Command::ApplyPayload {
             mass: 3.028,
-            com: [0.0, 0.0, 0.119]
+            com: [0.0, 0.0, 0.119],
+            force: None,
         }
     );
+    let r = parse_request(
+        br#"{"cmd":"apply-payload","id":4,"mass":3.9,"com":[0,0,0.119],"force":true}"#,
+    )
+    .unwrap();
+    assert!(matches!(
+        r.command,
+        Command::ApplyPayload {
+            force: Some(true),
+            ..
+        }
+    ));
+    // `force` is a boolean, never a number or a string.
+    for bad in [r#""force":1"#, r#""force":"yes""#] {
+        let line = format!(r#"{{"id":6,"cmd":"apply-payload","mass":1,"com":[0,0,0],{bad}}}"#);
+        assert_eq!(
+            code(&line),
+            (Some(6), ErrorCode::InvalidArguments),
+            "{line}"
+        );
+    }
     let r = parse_request(
         br#"{"id":5,"cmd":"collision","action":"configure","thresholds":[6,6,6,6,6,6,5]}"#,
     )

@@ -68,6 +68,11 @@ pub enum Change {
         mass: f64,
         /// Centre of mass in frame 7, m.
         com: [f64; 3],
+        /// The check's refusal `force` overrode: the payload may not be the one carried, and a
+        /// contact of the difference may pass (absent: the check passed, or an estimate's
+        /// `apply`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        forced_past: Option<super::PayloadRefusal>,
     },
     /// The applied payload was removed.
     PayloadCleared,
@@ -195,13 +200,23 @@ impl std::fmt::Display for Change {
                 )?;
                 weaker(f, weaker_than_configuration)
             }
-            Change::PayloadApplied { mass, com } => write!(
-                f,
-                "payload applied: {mass:.4} kg at ({:.1}, {:.1}, {:.1}) mm in frame 7",
-                com[0] * 1e3,
-                com[1] * 1e3,
-                com[2] * 1e3
-            ),
+            Change::PayloadApplied {
+                mass,
+                com,
+                forced_past,
+            } => {
+                write!(
+                    f,
+                    "payload applied: {mass:.4} kg at ({:.1}, {:.1}, {:.1}) mm in frame 7",
+                    com[0] * 1e3,
+                    com[1] * 1e3,
+                    com[2] * 1e3
+                )?;
+                match forced_past {
+                    Some(r) => write!(f, "; FORCED past the payload check, WEAKER: {r}"),
+                    None => Ok(()),
+                }
+            }
             Change::PayloadCleared => f.write_str("payload cleared"),
             Change::PayloadDeclaredUnknown {
                 max_mass,

@@ -41,7 +41,9 @@ pub use event::{Event, RawEvent};
 pub use expect_payload::{
     DeclaredBy, ExpectPayloadResult, PinnedBy, PinnedPayload, UnknownPayload,
 };
-pub use payload::{AppliedPayload, PayloadResult};
+pub use payload::{
+    AppliedPayload, PayloadBaseline, PayloadComparison, PayloadRefusal, PayloadResult,
+};
 pub use progress::{Phase, Progress, Workflow};
 pub use record::RecordResult;
 pub use resume::ResumeResult;

@@ -5,7 +5,7 @@ use std::io::{self, Write};
 use clap::Args;
 
 use fri_api::protocol::Command;
-use fri_api::results::PayloadResult;
+use fri_api::results::{PayloadComparison, PayloadResult};
 
 use super::JsonFlag;
 use super::format::{fixed, xyz_mm};
@@ -20,7 +20,14 @@ not move, but a wrong payload makes the monitor either trip on the real payload 
 contacts of the difference: use the values of `estimate-payload` or of a datasheet.
 
 Mass in kg (0…20), centre of mass in m in frame 7 (the last DH frame, at the wrist point), \
-each coordinate −1…1, e.g. `--mass 3.028 --com -0.0005,0,0.119`.";
+each coordinate −1…1, e.g. `--mass 3.028 --com -0.0005,0,0.119`.
+
+The service checks the payload first: with the arm at rest it compares the payload's gravity \
+torques at the current pose with the measured torques beyond the unloaded arm (the tare's \
+sample at this pose, the identified arm, or the controller's gravity vector, each with its \
+stated σ). A joint that disagrees beyond 4σ refuses the payload, naming the joint, both torques \
+and the σ; so does a moving arm. `--force` applies it anyway: the audit trail records the \
+refusal it overrode as a weakening (WARN).";
 
 /// `fri-ctl apply-payload`.
 #[derive(Debug, Clone, Args)]
@@ -39,6 +46,9 @@ pub struct ApplyPayloadArgs {
         allow_hyphen_values = true
     )]
     pub com: Vec<f64>,
+    /// Apply it even when its torques disagree with the measured ones (audited as weakening).
+    #[arg(long)]
+    pub force: bool,
     /// Output format.
     #[command(flatten)]
     pub output: JsonFlag,
@@ -51,6 +61,7 @@ impl Operation for ApplyPayloadArgs {
         Ok(Command::ApplyPayload {
             mass: self.mass,
             com: lists::exactly("com", &self.com)?,
+            force: self.force.then_some(true),
         })
     }
 
@@ -63,8 +74,46 @@ impl Operation for ApplyPayloadArgs {
     }
 }
 
+/// The per-joint figures of a payload check, one line each.
+pub(super) fn comparison_lines(c: &PayloadComparison) -> Vec<String> {
+    let mut v = vec![format!(
+        "against {} (k = {}): joint, payload's torque, measured beyond the baseline, σ [Nm]",
+        c.baseline.describe(),
+        c.sigmas
+    )];
+    for j in 0..7 {
+        v.push(format!(
+            "  j{}  {:>9}  {:>9}  {:>7}{}",
+            j + 1,
+            fixed(c.predicted_nm[j], 3),
+            fixed(c.measured_nm[j], 3),
+            fixed(c.sigma_nm[j], 3),
+            if j + 1 == c.joint { "  <- worst" } else { "" }
+        ));
+    }
+    if c.mass_implied_kg.is_finite() {
+        v.push(format!(
+            "the measured torques imply {} ± {} kg at the declared centre of mass",
+            fixed(c.mass_implied_kg, 3),
+            fixed(c.mass_implied_std_kg, 3)
+        ));
+    }
+    v
+}
+
 /// Writes the payload now applied (shared with `clear-payload`).
 pub(super) fn print(r: &PayloadResult, out: &mut dyn Write) -> io::Result<()> {
+    if let Some(refusal) = &r.forced_past {
+        writeln!(
+            out,
+            "FORCED past the payload check (audited as weakening): {refusal}"
+        )?;
+    }
+    if let Some(c) = &r.check {
+        for l in comparison_lines(c) {
+            writeln!(out, "{l}")?;
+        }
+    }
     match &r.payload {
         Some(p) => writeln!(
             out,

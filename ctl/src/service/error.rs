@@ -187,6 +187,16 @@ fn cause_lines(cause: &Cause) -> Vec<String> {
             against.describe(),
             sigmas
         )],
+        Cause::PayloadImplausible { refusal } => {
+            let mut v = vec![format!("cause: {refusal}")];
+            if let fri_api::results::PayloadRefusal::Disagrees { comparison: c } = refusal {
+                v.extend(super::apply_payload::comparison_lines(c));
+            }
+            v.push(
+                "nothing was applied; `--force` applies it anyway (audited as weakening)".to_owned(),
+            );
+            v
+        }
         Cause::CommandModeNotEntered { fri } => {
             let mut v = vec![
                 "cause: the controller did not enter command mode in time (check the KRL program, quality and drives)".to_owned(),

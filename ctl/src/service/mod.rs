@@ -225,6 +225,25 @@ mod tests {
     }
 
     #[test]
+    fn apply_payload_force_is_sent_only_when_asked() {
+        use fri_api::protocol::Command;
+        let base = ["apply-payload", "--mass", "3.9", "--com", "0,0,0.119"];
+        assert!(matches!(
+            request(&base).unwrap(),
+            Command::ApplyPayload { force: None, .. }
+        ));
+        let mut forced = base.to_vec();
+        forced.push("--force");
+        assert!(matches!(
+            request(&forced).unwrap(),
+            Command::ApplyPayload {
+                force: Some(true),
+                ..
+            }
+        ));
+    }
+
+    #[test]
     fn list_arguments_accept_negative_values() {
         use fri_api::protocol::Command;
         let around = "-0.1,0.5,0,-1.2,0,0.5,0";

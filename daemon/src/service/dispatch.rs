@@ -110,10 +110,15 @@ impl Handler for Dispatcher {
                 )
                 .await,
             ),
-            Command::ApplyPayload { mass, com } => {
-                reply(s.apply_payload(Some(AppliedPayload { mass, com }), &origin))
-            }
-            Command::ClearPayload => reply(s.apply_payload(None, &origin)),
+            Command::ApplyPayload { mass, com, force } => reply(
+                s.apply_payload(
+                    AppliedPayload { mass, com },
+                    force.unwrap_or(false),
+                    &origin,
+                )
+                .await,
+            ),
+            Command::ClearPayload => reply(s.clear_payload(&origin)),
             Command::ExpectPayload {
                 max_mass,
                 max_radius,

@@ -181,11 +181,13 @@ impl ServiceCore {
             });
         }
         if apply {
-            self.apply_payload(
+            // Measured from the torques themselves and judged above: installed unchecked.
+            self.install_payload(
                 Some(AppliedPayload {
                     mass: estimate.mass,
                     com: estimate.com,
                 }),
+                None,
                 origin,
             )?;
         }

@@ -15,6 +15,7 @@ pub mod expect_payload;
 pub mod install;
 pub mod motion;
 pub mod payload;
+pub mod payload_check;
 pub mod poses;
 pub mod record;
 pub mod sample;

@@ -1,8 +1,10 @@
 //! `apply-payload` / `clear-payload`: install a payload in the observer (paper eq. 48),
-//! persist it and publish it.
+//! persist it and publish it. `apply-payload` checks the declared payload against the static
+//! torques measured at rest first ([`super::payload_check`]).
 
+use fri_api::cause::Cause;
 use fri_api::origin::Origin;
-use fri_api::results::{Change, PayloadResult};
+use fri_api::results::{Change, PayloadRefusal, PayloadResult};
 
 use super::status::applied;
 
@@ -38,24 +40,67 @@ impl ServiceCore {
             })
     }
 
-    /// `apply-payload`: to the observer and persisted.
-    pub fn apply_payload(
+    /// The range and reach checks of a payload to install (any origin).
+    fn validate(&self, p: &AppliedPayload) -> Result<(), OperatorError> {
+        let ok = p.mass.is_finite()
+            && p.mass >= 0.0
+            && p.mass <= 20.0
+            && p.com.iter().all(|c| c.is_finite() && c.abs() <= 1.0);
+        if !ok {
+            return Err(err(
+                ErrorCode::InvalidArguments,
+                "mass must be in [0, 20] kg and each com coordinate in [-1, 1] m",
+            ));
+        }
+        self.check_reach(p)
+    }
+
+    /// `apply-payload`: the declared payload is checked against the static torques measured at
+    /// rest ([`ServiceCore::check_payload`]); refused with both figures unless `force`, which
+    /// applies it and audits the refusal it overrode as a weakening. Then to the observer and
+    /// persisted.
+    pub async fn apply_payload(
+        &self,
+        p: AppliedPayload,
+        force: bool,
+        origin: &Origin,
+    ) -> Result<PayloadResult, OperatorError> {
+        self.validate(&p)?;
+        let (check, forced_past) = match self.check_payload(&p).await {
+            Ok(c) => (Some(c), None),
+            Err(refusal) if force => {
+                tracing::warn!(%origin, %refusal, mass = p.mass, "apply-payload FORCED past its check");
+                let check = match &refusal {
+                    PayloadRefusal::Disagrees { comparison } => Some(*comparison),
+                    _ => None,
+                };
+                (check, Some(refusal))
+            }
+            Err(refusal) => return Err(refused(&p, refusal)),
+        };
+        let mut result = self.install_payload(Some(p), forced_past.clone(), origin)?;
+        result.check = check;
+        result.forced_past = forced_past;
+        Ok(result)
+    }
+
+    /// `clear-payload`: nothing is compensated any more (not checked: a load still carried
+    /// then shows as a residual, which the monitor reacts to).
+    pub fn clear_payload(&self, origin: &Origin) -> Result<PayloadResult, OperatorError> {
+        self.install_payload(None, None, origin)
+    }
+
+    /// Installs `p` in the observer and persists it, unchecked against the measured torques (an
+    /// estimate's `apply` comes from them); `forced_past` is the check's refusal a `force`
+    /// overrode, for the audit trail.
+    pub(crate) fn install_payload(
         &self,
         p: Option<AppliedPayload>,
+        forced_past: Option<PayloadRefusal>,
         origin: &Origin,
     ) -> Result<PayloadResult, OperatorError> {
         if let Some(p) = &p {
-            let ok = p.mass.is_finite()
-                && p.mass >= 0.0
-                && p.mass <= 20.0
-                && p.com.iter().all(|c| c.is_finite() && c.abs() <= 1.0);
-            if !ok {
-                return Err(err(
-                    ErrorCode::InvalidArguments,
-                    "mass must be in [0, 20] kg and each com coordinate in [-1, 1] m",
-                ));
-            }
-            self.check_reach(p)?;
+            self.validate(p)?;
         }
         self.send(CycleRequest::SetPayload(p.as_ref().map(compensation)))?;
         self.store.save_payload(p.as_ref()).map_err(|e| {
@@ -80,6 +125,7 @@ impl ServiceCore {
                 Some(p) => Change::PayloadApplied {
                     mass: p.mass,
                     com: p.com,
+                    forced_past,
                 },
                 None => Change::PayloadCleared,
             },
@@ -104,6 +150,36 @@ impl ServiceCore {
         }
         Ok(PayloadResult {
             payload: p.as_ref().map(applied),
+            check: None,
+            forced_past: None,
         })
     }
+}
+
+/// The refusal of `p`: `invalid-arguments` when its torques disagree (the declaration is
+/// wrong), `not-ready` when nothing could be compared; the message names the fields and the
+/// figures, the cause carries them.
+fn refused(p: &AppliedPayload, refusal: PayloadRefusal) -> OperatorError {
+    let code = match refusal {
+        PayloadRefusal::Disagrees { .. } => ErrorCode::InvalidArguments,
+        _ => ErrorCode::NotReady,
+    };
+    let (what, todo) = match refusal {
+        PayloadRefusal::Disagrees { .. } => (
+            "does not agree with",
+            "Check the payload's data or measure it (`estimate-payload`)",
+        ),
+        _ => (
+            "cannot be checked against",
+            "Let the arm rest (or `tare` at this pose) and send it again",
+        ),
+    };
+    err(
+        code,
+        format!(
+            "apply-payload refused, nothing applied: mass = {} kg with com = ({}, {}, {}) m in frame 7 {what} the static torques measured at rest: {refusal}. {todo}; `force` (fri-ctl apply-payload --force) applies it anyway and the audit trail records it as weakening",
+            p.mass, p.com[0], p.com[1], p.com[2]
+        ),
+    )
+    .with_cause(Cause::PayloadImplausible { refusal })
 }

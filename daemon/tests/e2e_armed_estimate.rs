@@ -10,8 +10,10 @@
 //! On a host that stalls the real-time pair (this shared VM does, at times for more than half of
 //! the cycles) the controller may end command mode for good. That outcome is asserted too — the
 //! typed cause, no collision, the arm not held — and the scenario is tried again, at most
-//! [`ATTEMPTS`] times; when the host stalled every attempt the run says so and the workflow's
-//! success is left to the lockstep tests (`e2e_workflows`).
+//! [`ATTEMPTS`] times. A run the host stalled proves nothing about the workflow: when every
+//! attempt stalled the test fails, saying so with the evidence; it never passes on stalls. A
+//! collision before the scenario's own contact is a false contact and fails the test, stalled
+//! host or not (issue 34 item 6).
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 mod common;
@@ -36,7 +38,7 @@ const GRASP_S: f64 = 2.0;
 static REAL_TIME: tokio::sync::Mutex<()> = tokio::sync::Mutex::const_new(());
 
 /// Attempts of a scenario while the host's stalls end command mode before it completes.
-const ATTEMPTS: usize = 3;
+const ATTEMPTS: usize = 5;
 
 /// Lateness of a controller cycle start beyond which the controller's own thread stalled, s
 /// (the service's connection timeout is 0.1 s).
@@ -61,9 +63,9 @@ async fn in_attempts<F: Future<Output = Attempt>>(scenario: impl Fn() -> F) {
             Attempt::HostStalled(why) => stalled.push(why),
         }
     }
-    eprintln!(
-        "INCONCLUSIVE for the workflow: the host stalled the real-time pair in all {ATTEMPTS} \
-         attempts (the outcome under the stalls held each time): {stalled:#?}"
+    panic!(
+        "no conclusion: the host stalled the real-time pair in all {ATTEMPTS} attempts (the \
+         outcome under the stalls held each time, but the workflow never ran): {stalled:#?}"
     );
 }
 
@@ -71,14 +73,11 @@ async fn in_attempts<F: Future<Output = Attempt>>(scenario: impl Fn() -> F) {
 /// host and ends the attempt. The host stalled when the controller missed more than 2 % of our
 /// answers (an idle host: about 0.4 %) or its own thread started a cycle more than
 /// [`CONTROLLER_STALL_S`] late. Accepted outcomes: command mode lost or never entered, the
-/// controller silent; the contact of the scenario (onset `contact_onset_s`) taking place before
-/// the stalled test host could start the estimate (the arm then held by it); and a collision
-/// the monitor reported during such a stall, with the arm held (the reaction worked). The last
-/// one is a false contact under host stalls: the cause found (a stall across the grasp, then the
-/// estimate's first move pinned the empty flange) is fixed and reproduced cycle by cycle in
-/// `unknown_payload_pin.rs`; any other is printed with its evidence, and on a host that kept
-/// time it fails the test. Nothing before the scenario's
-/// contact may be taken for a contact on a host that kept time.
+/// controller silent; and the contact of the scenario (onset `contact_onset_s`) taking place
+/// before the stalled test host could start the estimate (the arm then held by it). A
+/// collision before that onset is a false contact: the test fails with its evidence, whatever
+/// the host did (the one cause found so far, a stall across the grasp, is fixed and reproduced
+/// cycle by cycle in `unknown_payload_pin.rs`).
 async fn host_stalled(
     e: OperatorError,
     c: &mut Client,
@@ -120,13 +119,11 @@ async fn host_stalled(
             assert_eq!(status["stopped"], true, "{status}");
             assert!(!times.is_empty(), "held without a collision: {status}");
         }
-        Some(Cause::Collision { .. }) => {
-            assert_eq!(
-                status["stopped"], true,
-                "the reaction holds the arm: {status}"
-            );
-            eprintln!("FALSE CONTACT UNDER HOST STALLS ({evidence}): {e:?}");
-        }
+        Some(Cause::Collision { .. }) => panic!(
+            "FALSE CONTACT under host stalls ({evidence}): collisions at {times:?} s, the \
+             scenario's contact at {onset} s: {e:?} (events: {:?})",
+            events.lock().unwrap()
+        ),
         _ => panic!("not the outcome of a stalled host ({evidence}): {e:?}"),
     }
     h.stop().await;

@@ -13,7 +13,7 @@ use common::*;
 use fri_api::cause::{Cause, EstimateProblem, TareReference};
 use fri_api::protocol::{Command, ErrorCode, OperatorError};
 use fri_api::results::{EstimateResult, EstimateWarning, TareResult};
-use mock_robot::{ServerConfig, Simulation, SimulationConfig};
+use mock_robot::{ServerConfig, SimulationConfig};
 
 fn tare(replace_loaded: bool) -> Command {
     Command::Tare {
@@ -43,29 +43,6 @@ async fn typed<T: serde::de::DeserializeOwned>(
     call(c, cmd)
         .await
         .map(|v| serde_json::from_value(v).unwrap())
-}
-
-/// The controller off line for 2 s while the payload is attached, then back from a new port
-/// (the service rebinds it once the old one has been silent for `fri.resync_after_s`).
-async fn attach_payload(
-    driver: mock_robot::MockRobotHandle,
-    h: &Harness,
-    attached: bool,
-) -> mock_robot::MockRobotHandle {
-    let mut robot: Simulation = driver.join().unwrap().0;
-    for _ in 0..(2.0 / robot.cycle_s()).round() as u64 {
-        robot.step_cycle(None);
-    }
-    robot.set_payload_attached(attached);
-    let driver = mock_robot::spawn(robot, ServerConfig::loopback(h.fri, lockstep())).unwrap();
-    for _ in 0..500 {
-        if driver.counters().answer_counts().answered > 50 {
-            break;
-        }
-        tokio::time::sleep(Duration::from_millis(10)).await;
-    }
-    assert!(driver.counters().answer_counts().answered > 50);
-    driver
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -14,7 +14,7 @@ use common::*;
 use fri_api::cause::Cause;
 use fri_api::protocol::{Command, ErrorCode, OperatorError, RecordKind};
 use fri_api::results::{PayloadBaseline, PayloadRefusal, PayloadResult};
-use mock_robot::{ServerConfig, Simulation};
+use mock_robot::ServerConfig;
 
 const TRUE_MASS: f64 = 3.028;
 const TRUE_COM: [f64; 3] = [0.0, 0.0, 0.119];
@@ -172,28 +172,6 @@ async fn a_wrong_payload_is_refused_with_both_figures_unless_forced_and_then_aud
     h.stop().await;
 }
 
-/// The controller off line while the payload is attached, then back from a new port (a
-/// rebind, not a restart: the tare stays this session's).
-async fn attach_payload(
-    driver: mock_robot::MockRobotHandle,
-    h: &Harness,
-) -> mock_robot::MockRobotHandle {
-    let mut robot: Simulation = driver.join().unwrap().0;
-    for _ in 0..(2.0 / robot.cycle_s()).round() as u64 {
-        robot.step_cycle(None);
-    }
-    robot.set_payload_attached(true);
-    let driver = mock_robot::spawn(robot, ServerConfig::loopback(h.fri, lockstep())).unwrap();
-    for _ in 0..500 {
-        if driver.counters().answer_counts().answered > 50 {
-            break;
-        }
-        tokio::time::sleep(Duration::from_millis(10)).await;
-    }
-    assert!(driver.counters().answer_counts().answered > 50);
-    driver
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_tare_at_the_pose_is_the_baseline() {
     let dir = tempfile::tempdir().unwrap();
@@ -205,7 +183,7 @@ async fn a_tare_at_the_pose_is_the_baseline() {
     let mut c = h.client().await;
     wait_connected(&mut c).await;
     call(&mut c, six_pose_tare()).await.unwrap();
-    let driver = attach_payload(driver, &h).await;
+    let driver = attach_payload(driver, &h, true).await;
     // The grasp rings the arm: the check waits for no one, it refuses until the arm rests.
     let mut e = None;
     for _ in 0..100 {

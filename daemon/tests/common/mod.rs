@@ -214,3 +214,27 @@ pub async fn wait_stopped_by_collision(events: &Collected) {
     })
     .await;
 }
+
+/// The controller off line for 2 s of its time while the payload is attached (or taken off),
+/// then back from a new port: a rebind, not a restart, so the tare stays this session's.
+pub async fn attach_payload(
+    driver: mock_robot::MockRobotHandle,
+    h: &Harness,
+    attached: bool,
+) -> mock_robot::MockRobotHandle {
+    let mut robot: mock_robot::Simulation = driver.join().unwrap().0;
+    for _ in 0..(2.0 / robot.cycle_s()).round() as u64 {
+        robot.step_cycle(None);
+    }
+    robot.set_payload_attached(attached);
+    let driver =
+        mock_robot::spawn(robot, mock_robot::ServerConfig::loopback(h.fri, lockstep())).unwrap();
+    for _ in 0..500 {
+        if driver.counters().answer_counts().answered > 50 {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    assert!(driver.counters().answer_counts().answered > 50);
+    driver
+}

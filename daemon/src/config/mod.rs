@@ -372,6 +372,9 @@ pub struct OperatorConfig {
     pub allowed_uids: Vec<u32>,
     /// Group ids allowed to connect (default none).
     pub allowed_gids: Vec<u32>,
+    /// User ids whose requests may forward a ROS 2 caller (the `ros2` field), besides the
+    /// service's own user: the bridge's user when it runs as another (default none).
+    pub ros2_bridge_uids: Vec<u32>,
     /// Longest accepted request line, bytes (default 65536).
     pub max_line_bytes: usize,
     /// Most simultaneous clients (default 64).
@@ -388,6 +391,7 @@ impl Default for OperatorConfig {
             stop_socket: None,
             allowed_uids: Vec::new(),
             allowed_gids: Vec::new(),
+            ros2_bridge_uids: Vec::new(),
             max_line_bytes: 65536,
             max_clients: 64,
             idle_timeout_s: 30.0,

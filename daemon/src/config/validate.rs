@@ -259,6 +259,7 @@ impl Config {
         )?;
         let ids = Range::new(0.0, MAX_ALLOWED_IDS as f64, "entries");
         count_in_range("operator.allowed_uids", op.allowed_uids.len(), ids)?;
+        count_in_range("operator.ros2_bridge_uids", op.ros2_bridge_uids.len(), ids)?;
         count_in_range("operator.allowed_gids", op.allowed_gids.len(), ids)?;
         check(
             "state.dir",

@@ -25,7 +25,7 @@ pub use super::limits::ServerLimits;
 pub use super::listener::ServerError;
 use super::overflow;
 use fri_api::frame::{Frame, LineReader};
-use fri_api::protocol::{ErrorCode, OperatorError, Reply, parse_request};
+use fri_api::protocol::{Command, ErrorCode, OperatorError, Reply, parse_request};
 
 /// Binds the operator socket at `path` with mode 0660 ([`super::listener::bind`]: a checked
 /// directory; a stale socket is replaced, anything else at the path is an error).
@@ -195,6 +195,23 @@ async fn connection<H: Handler>(
                 continue;
             }
         };
+        if let Err(e) = peer.check_claim(request.ros2.as_ref()) {
+            // a stop is never refused: it runs with the peer's own origin
+            if request.command != Command::Stop {
+                warn!(
+                    uid = peer.uid,
+                    "a request claimed a ROS 2 caller it may not forward"
+                );
+                if out_tx
+                    .send(Reply::err(Some(request.id), e).to_line())
+                    .await
+                    .is_err()
+                {
+                    break;
+                }
+                continue;
+            }
+        }
         let Ok(permit) = in_flight.clone().try_acquire_owned() else {
             let e = OperatorError::new(ErrorCode::Busy, "too many requests in flight");
             if out_tx

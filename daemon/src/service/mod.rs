@@ -316,6 +316,7 @@ impl RunningService {
         let policy = AccessPolicy {
             allowed_uids: c.allowed_uids.clone(),
             allowed_gids: c.allowed_gids.clone(),
+            ros2_bridge_uids: c.ros2_bridge_uids.clone(),
         };
         let limits = ServerLimits {
             max_line_bytes: c.max_line_bytes,

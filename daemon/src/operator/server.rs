@@ -290,6 +290,7 @@ mod tests {
         let p = AccessPolicy {
             allowed_uids: vec![1000],
             allowed_gids: vec![2000],
+            ros2_bridge_uids: Vec::new(),
         };
         assert!(p.allows(1000, 1));
         assert!(p.allows(4242, 2000));

@@ -195,13 +195,23 @@ async fn connection<H: Handler>(
                 continue;
             }
         };
-        if let Err(e) = peer.check_claim(request.ros2.as_ref()) {
+        let refusal = match peer.check_claim(request.ros2.as_ref()) {
             // a stop is never refused: it runs with the peer's own origin
-            if request.command != Command::Stop {
+            Err(e) if request.command != Command::Stop => {
                 warn!(
                     uid = peer.uid,
                     "a request claimed a ROS 2 caller it may not forward"
                 );
+                Err(e)
+            }
+            _ => in_flight
+                .clone()
+                .try_acquire_owned()
+                .map_err(|_| OperatorError::new(ErrorCode::Busy, "too many requests in flight")),
+        };
+        let permit = match refusal {
+            Ok(permit) => permit,
+            Err(e) => {
                 if out_tx
                     .send(Reply::err(Some(request.id), e).to_line())
                     .await
@@ -211,17 +221,6 @@ async fn connection<H: Handler>(
                 }
                 continue;
             }
-        }
-        let Ok(permit) = in_flight.clone().try_acquire_owned() else {
-            let e = OperatorError::new(ErrorCode::Busy, "too many requests in flight");
-            if out_tx
-                .send(Reply::err(Some(request.id), e).to_line())
-                .await
-                .is_err()
-            {
-                break;
-            }
-            continue;
         };
         let handler = handler.clone();
         let out = out_tx.clone();
